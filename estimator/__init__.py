@@ -1,0 +1,1 @@
+"""Identification: pure computation, runs in, results out. Never imports api/ or drivers."""

@@ -1,0 +1,130 @@
+"""The effect vocabulary (rig.md, "Unmodelled effects"): one module for the emulator's injections
+and the identification/diagnosis models' candidate terms.
+
+Each effect has a name, what it is, where it shows, the parameters it takes (with units and
+defaults) and one of them named as its magnitude. Its torque/sensor term is a plain NumPy
+function below, compiled into the emulator's kernel and evaluated on arrays by the estimator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from rig.terms import smooth_sign
+
+
+@dataclass(frozen=True)
+class EffectParam:
+    name: str
+    default: float
+    unit: str
+    doc: str
+
+
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    what: str
+    where: str
+    acts_on: str
+    """'transmission' (twist–torque law), 'output' (a torque on the output shaft, in Eq. 4's
+    balance) or 'sensor' (what the torque channel reads, not the physics)."""
+    magnitude: str
+    """Name of the parameter that sets the effect's size (0 switches it off)."""
+    params: tuple[EffectParam, ...]
+
+    def defaults(self) -> dict[str, float]:
+        return {p.name: p.default for p in self.params}
+
+    def resolve(self, given: Mapping[str, float] | None) -> dict[str, float]:
+        """Defaults overlaid with `given`; unknown parameter names are refused by name."""
+        out = self.defaults()
+        for key, value in (given or {}).items():
+            if key not in out:
+                raise ValueError(
+                    f"effect {self.name!r} has no parameter {key!r}; it takes {sorted(out)}")
+            out[key] = float(value)
+        return out
+
+
+VOCABULARY: dict[str, Effect] = {e.name: e for e in (
+    Effect("hysteresis", "Bouc–Wen state in the transmission (absent from the rigid Eq. 4)",
+           "twist vs torque loops; loading vs unloading", "transmission", "scale",
+           (EffectParam("scale", 1.0, "-", "multiplies the hysteretic stiffness k_h = (1−w)·k; "
+                        "0 makes the transmission purely elastic with stiffness k"),)),
+    Effect("stribeck", "friction above Coulomb at low speed, falling with speed",
+           "low speeds (300 r/min runs), velocity reversals", "output", "f_s",
+           (EffectParam("f_s", 1500.0, "N·m", "extra friction at zero speed"),
+            EffectParam("v_s", 6e-3, "rad/s", "Stribeck speed (output side; 300 r/min = 2.9e-3)"))),
+    Effect("load_dependent_friction", "gear/bearing friction growing with transmitted torque",
+           "high load; sign flips with the direction of motion", "output", "mu",
+           (EffectParam("mu", 0.02, "-", "friction torque per unit of |transmitted torque|"),)),
+    Effect("temperature_friction", "lubricant drag that changes with joint temperature",
+           "cold vs warm runs; drifts along long runs", "output", "c_T",
+           (EffectParam("c_T", 30.0, "N·m/K", "extra drag per kelvin below T_ref"),
+            EffectParam("T_ref", 40.0, "°C", "temperature at which the drag is nominal"))),
+    Effect("backlash", "dead zone in the transmission",
+           "torque and velocity reversals", "transmission", "b",
+           (EffectParam("b", 8.7e-4, "rad", "half-width of the dead zone (0.05°)"),)),
+    Effect("gear_ripple", "torque periodic in the output angle (gear mesh)",
+           "a spectral line at a fixed number of cycles per revolution", "output", "A",
+           (EffectParam("A", 500.0, "N·m", "ripple amplitude"),
+            EffectParam("order", 36.0, "cycles/rev", "ripple cycles per output revolution"),
+            EffectParam("phase", 0.0, "rad", "ripple phase at q = 0"))),
+    Effect("torque_offset", "torque sensor offset or slow drift",
+           "everywhere, growing with time", "sensor", "c0",
+           (EffectParam("c0", 800.0, "N·m", "offset of the torque channel at t = 0"),
+            EffectParam("drift", 2.0, "N·m/s", "drift rate of the offset"))),
+    Effect("time_delay", "a channel lagging the others",
+           "fast changes, reversals", "sensor", "delay",
+           (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel"),)),
+)}
+
+EFFECT_NAMES: tuple[str, ...] = tuple(VOCABULARY)
+
+
+def resolve_effects(spec: Mapping[str, Mapping[str, float] | None]) -> dict[str, dict[str, float]]:
+    """Validate an injection spec {name: {param: value}} against the vocabulary and fill the
+    defaults. Unknown names are refused with the list of known ones."""
+    out = {}
+    for name, given in spec.items():
+        if name not in VOCABULARY:
+            raise ValueError(f"unknown effect {name!r}; the vocabulary is {list(EFFECT_NAMES)}")
+        out[name] = VOCABULARY[name].resolve(given)
+    return out
+
+
+# --- the effects' terms (NumPy/numba-compatible) -----------------------------------------------
+
+def stribeck_torque(qd, f_s, v_s, v_eps):
+    """Stribeck friction above Coulomb [N·m]: f_s·exp(−(q̇/v_s)²)·sgn(q̇)."""
+    return f_s * np.exp(-(qd / v_s) ** 2) * smooth_sign(qd, v_eps)
+
+
+def load_dependent_friction_torque(qd, T, mu, v_eps):
+    """Efficiency loss growing with the transmitted torque T [N·m]: μ·|T|·sgn(q̇)."""
+    return mu * np.abs(T) * smooth_sign(qd, v_eps)
+
+
+def temperature_friction_torque(qd, temp, c_T, T_ref, v_eps):
+    """Lubricant drag [N·m]: c_T·(T_ref − temp)·sgn(q̇); more drag when colder than T_ref [°C]."""
+    return c_T * (T_ref - temp) * smooth_sign(qd, v_eps)
+
+
+def backlash_twist(delta, b):
+    """Twist the spring sees through a dead zone of half-width b [rad]:
+    sgn(Δ)·max(|Δ| − b, 0)."""
+    return np.sign(delta) * np.maximum(np.abs(delta) - b, 0.0)
+
+
+def gear_ripple_torque(q, A, order, phase):
+    """Gear-mesh ripple [N·m]: A·sin(order·q + phase), `order` cycles per output revolution."""
+    return A * np.sin(order * q + phase)
+
+
+def torque_offset(t, c0, drift):
+    """Torque-sensor offset [N·m] at time t [s]: c0 + drift·t."""
+    return c0 + drift * t
