@@ -1,0 +1,95 @@
+"""The DAQ's interlocks: limits checked on every PLC status sample and drive status, and the
+link/e-stop trips. A trip makes the rig safe (daq/rig.py) and is recorded; this module only
+decides whether something trips — pure functions of the measured values and the settings.
+
+| name                | trips when                                                          |
+|---------------------|---------------------------------------------------------------------|
+| `torque`            | |joint torque| > torque_limit (default 105 % of the rated 120 kN·m)   |
+| `bending`           | |bending moment| > bend_limit (250 kN·m)                             |
+| `shear`             | |shear| > shear_limit + shear_tolerance (90 kN + 2 kN)               |
+| `pressure`          | hydraulic pressure > pressure_limit                                 |
+| `motor_temperature` | a motor winding > motor_temp_limit                                  |
+| `estop`             | the PLC reports its e-stop latched, or the operator presses e-stop  |
+| `plc_fault`         | the PLC made itself safe (its heartbeat watchdog tripped)           |
+| `plc_link`          | no successful status poll for plc_link_timeout                      |
+| `drive_link`        | a second drive lost (heartbeat or EMCY), or no drive left           |
+
+A missing sample (NaN) of a limited channel does not trip by itself; the link trips cover
+silence.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Mapping
+
+from rig.plc_map import REGISTER_MAP
+from rig.settings import Settings
+
+INTERLOCKS = ("torque", "bending", "shear", "pressure", "motor_temperature", "estop",
+              "plc_fault", "plc_link", "drive_link")
+
+
+@dataclass(frozen=True)
+class Trip:
+    """One interlock trip: which, why, the measured value and the limit (SI), wall time."""
+
+    name: str
+    message: str
+    value: float | None = None
+    limit: float | None = None
+    t: float = field(default_factory=time.time)
+
+
+class Interlocks:
+    """The limits of one settings object."""
+
+    def __init__(self, settings: Settings) -> None:
+        s = settings
+        self.limits: dict[str, tuple[str, float, str]] = {
+            # name: (status signal, limit, unit)
+            "torque": ("torque", s.torque_limit, "N·m"),
+            "bending": ("m_bend", s.bend_limit, "N·m"),
+            "shear": ("f_shear", s.shear_limit + s.shear_tolerance, "N"),
+            "pressure": ("p_hyd", s.pressure_limit, "Pa"),
+        }
+        self.motor_temp_limit = s.motor_temp_limit
+        self._bits = REGISTER_MAP.signals["status_bits"]
+
+    def check_status(self, status: Mapping[str, float]) -> list[Trip]:
+        """Trips raised by one decoded PLC status sample."""
+        trips = []
+        for name, (signal, limit, unit) in self.limits.items():
+            v = status.get(signal, math.nan)
+            if abs(v) > limit:  # False for NaN
+                trips.append(Trip(name, f"{signal} {v:.6g} {unit} beyond {limit:.6g} {unit}",
+                                  float(v), float(limit)))
+        bits = int(status.get("status_bits", 0))
+        if bits & self._bits.bit("estop"):
+            trips.append(Trip("estop", "e-stop latched at the PLC"))
+        if bits & self._bits.bit("watchdog_fault"):
+            trips.append(Trip("plc_fault", "the PLC's heartbeat watchdog made the rig safe"))
+        return trips
+
+    def check_motor_temperature(self, motor: int, temp: float) -> Trip | None:
+        """Trip if motor `motor` (1–3) is over its temperature limit [°C]."""
+        if temp > self.motor_temp_limit:
+            return Trip("motor_temperature",
+                        f"motor {motor} at {temp:.1f} °C beyond {self.motor_temp_limit:.1f} °C",
+                        float(temp), float(self.motor_temp_limit))
+        return None
+
+    @staticmethod
+    def plc_link_lost(silent_for: float, limit: float) -> Trip:
+        return Trip("plc_link", f"no answer from the PLC for {silent_for:.3f} s", silent_for, limit)
+
+    @staticmethod
+    def drive_link_lost(dropped: list[str], active: int) -> Trip:
+        return Trip("drive_link", f"{len(dropped)} drives lost ({'; '.join(dropped)}), "
+                                  f"{active} left", float(len(dropped)))
+
+    @staticmethod
+    def operator_estop(reason: str) -> Trip:
+        return Trip("estop", f"operator e-stop: {reason}")
