@@ -40,23 +40,15 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from machine import describe  # noqa: E402  (bench/machine.py: run as python bench/NAME.py)
 from daq.plc import PlcClient  # noqa: E402
 from daq.rig import Rig  # noqa: E402
 from rig.settings import Settings  # noqa: E402
 
 
 def machine() -> str:
-    cpu = platform.processor() or "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
     import pymodbus
-    return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-            f"pymodbus {pymodbus.__version__}")
+    return describe(f"pymodbus {pymodbus.__version__}")
 
 
 def start_standin(time_scale: float) -> tuple[subprocess.Popen, int, int]:

@@ -21,18 +21,9 @@ import time
 
 import numpy as np
 
+from machine import cpu_model  # bench/machine.py (run as python bench/NAME.py)
+
 TARGET = 5_000_000
-
-
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def main() -> int:

@@ -33,6 +33,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from machine import cpu_model  # bench/machine.py (run as python bench/NAME.py)
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -43,16 +45,6 @@ from rig.run import RunData  # noqa: E402
 
 N_CHANNELS = 20
 PHASE_ORDER = ("idle", "load", "hold", "unload")
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def make_run(n: int, seed: int = 0) -> RunData:
