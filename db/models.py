@@ -28,7 +28,7 @@ NAMING = {
 
 RUN_STATUSES = ("running", "finished", "interrupted")
 EXIT_STATUSES = ("success", "abort", "fail")
-JOB_STATUSES = ("queued", "running", "done", "failed", "cancelled")
+JOB_STATUSES = ("queued", "running", "succeeded", "failed", "cancelled")
 
 
 def utcnow() -> datetime:
@@ -157,6 +157,9 @@ class Job(Base):
     started_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     heartbeat_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    idempotency_key: Mapped[str | None] = mapped_column(String(200), unique=True)
+    attempts: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
+    worker_pid: Mapped[int | None] = mapped_column(Integer)
 
 
 class Result(Base):

@@ -1,84 +1,14 @@
-"""Test harness for the driver/stand-in tests: start `rig emulate` as a separate process on free
-loopback ports, learn its ports from what it prints, always stop it."""
+"""Test harness for the driver/stand-in tests: the stand-in process (simulators.process), free
+ports, and waiting for a condition."""
 
 from __future__ import annotations
 
-import os
-import re
-import signal
-import subprocess
-import sys
-import threading
 import time
 from pathlib import Path
 
+from simulators.process import StandinProcess  # noqa: F401  (re-exported for the tests)
+
 REPO = Path(__file__).resolve().parents[1]
-
-
-class StandinProcess:
-    """A running stand-in: `plc_port`, `can_port`, `lines` (its stdout so far)."""
-
-    def __init__(self, args: list[str], startup_timeout: float = 60.0,
-                 plc_port: int = 0, can_port: int = 0) -> None:
-        self.cmd = [sys.executable, "-m", "simulators.standin", "--plc-port", str(plc_port),
-                    "--can-port", str(can_port), *args]
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(self.cmd, cwd=REPO, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, text=True, env=env)
-        self.lines: list[str] = []
-        self.plc_port: int | None = None
-        self.can_port: int | None = None
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-        want_plc = "--no-plc" not in args
-        want_can = "--no-can" not in args
-        deadline = time.monotonic() + startup_timeout
-        while time.monotonic() < deadline:
-            if (not want_plc or self.plc_port) and (not want_can or self.can_port) \
-                    and any("time scale" in ln for ln in self.lines):
-                return
-            if self.proc.poll() is not None:
-                break
-            time.sleep(0.02)
-        out = "\n".join(self.lines)
-        self.stop()
-        raise RuntimeError(f"stand-in did not start ({self.cmd}):\n{out}")
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            line = line.rstrip("\n")
-            self.lines.append(line)
-            m = re.search(r"PLC .* listening on [\d.]+:(\d+)", line)
-            if m:
-                self.plc_port = int(m.group(1))
-            m = re.search(r"CAN .* listening on [\d.]+:(\d+)", line)
-            if m:
-                self.can_port = int(m.group(1))
-
-    def kill(self) -> None:
-        """SIGKILL: the stand-in dies without any clean-up (a crashed PLC)."""
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait(timeout=10)
-
-    def stop(self, timeout: float = 10.0) -> int:
-        """SIGTERM and wait (SIGKILL if it does not stop); returns the exit code."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=10)
-        self._reader.join(timeout=2.0)
-        return self.proc.returncode
-
-    def __enter__(self) -> "StandinProcess":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
 
 
 def free_port() -> int:

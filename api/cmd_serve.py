@@ -1,0 +1,26 @@
+"""`rig serve`: the REST service (uvicorn) with its job worker pool; OpenAPI docs at /docs."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--host", help="listen address (default env RIG_API_HOST or 127.0.0.1)")
+    p.add_argument("--port", type=int, help="listen port (default env RIG_API_PORT or 8000)")
+    p.add_argument("--workers", type=int,
+                   help="job worker processes (default env RIG_WORKERS or 2; 0 = none)")
+    p.add_argument("--db", help="database URL (default env RIG_DB_URL)")
+
+
+def run(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from api.app import create_app
+    from api.settings import Settings
+
+    st = Settings.from_env(host=args.host, port=args.port, workers=args.workers, db_url=args.db)
+    print(f"serving on http://{st.host}:{st.port} (docs at /docs), {st.workers} job workers, "
+          f"database {st.db_url}", flush=True)
+    uvicorn.run(create_app(st), host=st.host, port=st.port, log_level="info")
+    return 0

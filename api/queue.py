@@ -1,0 +1,288 @@
+"""The durable job queue in SQL (table `jobs`): submit, claim, heartbeat, finish, fail,
+cancel, and recovery of jobs whose worker is gone.
+
+Claims are atomic: a worker selects the oldest queued job (`FOR UPDATE SKIP LOCKED` on
+PostgreSQL; on SQLite the whole transaction holds the write lock, opened `BEGIN IMMEDIATE`
+by db.engine) and moves it to 'running' with `UPDATE … WHERE status = 'queued'`, so two
+workers never run one job. A job's end is written only while it is still 'running' under the
+same worker, so a cancelled or re-queued job never gets a stale result."""
+
+from __future__ import annotations
+
+import os
+import socket
+import traceback
+from datetime import datetime, timedelta, timezone
+from typing import Any
+
+import numpy as np
+from sqlalchemy import insert, select, update
+from sqlalchemy.exc import IntegrityError
+
+from db.models import Job, Result, ResultRun, utcnow
+from db.store import Store, process_token
+
+ACTIVE = ("queued", "running")
+FINAL = ("succeeded", "failed", "cancelled")
+
+
+class IdempotencyConflict(Exception):
+    """The Idempotency-Key was used before for a different submission."""
+
+
+def aware_utc(dt: datetime | None) -> datetime | None:
+    """A datetime from the database as UTC-aware (SQLite hands back naive UTC datetimes)."""
+    if dt is not None and dt.tzinfo is None:
+        return dt.replace(tzinfo=timezone.utc)
+    return dt
+
+
+def worker_name(pid: int | None = None) -> str:
+    """'host/pid/token' of a worker process (token guards against PID reuse)."""
+    pid = os.getpid() if pid is None else pid
+    return f"{socket.gethostname()}/{pid}/{process_token(pid)}"
+
+
+def job_dict(j: Job, result_ids: list[int] | None = None) -> dict[str, Any]:
+    """A job row as the API shows it; timings in s."""
+    created, started, finished = aware_utc(j.created_at), aware_utc(j.started_at), aware_utc(j.finished_at)
+    return {
+        "id": j.id, "kind": j.kind, "state": j.status, "params": j.params,
+        "progress": j.progress, "error": j.error, "attempts": j.attempts, "worker": j.worker,
+        "created_at": created, "started_at": started, "finished_at": finished,
+        "heartbeat_at": aware_utc(j.heartbeat_at),
+        "timings": {
+            "queued_s": ((started or finished) - created).total_seconds()
+            if created and (started or finished) else None,
+            "running_s": (finished - started).total_seconds() if started and finished else None,
+        },
+        "result_ids": result_ids or [],
+    }
+
+
+def submit(store: Store, kind: str, params: dict[str, Any], idempotency_key: str | None = None
+           ) -> tuple[dict[str, Any], bool]:
+    """Queue a job; returns (job, created). With an idempotency key already used for the same
+    kind and parameters, the existing job (created False); for others IdempotencyConflict."""
+    run_id = (params.get("run_ids") or [None])[0]
+    if idempotency_key is not None:
+        found = _by_key(store, idempotency_key, kind, params)
+        if found is not None:
+            return found, False
+    try:
+        with store.Session.begin() as s:
+            job = Job(kind=kind, status="queued", params=params, run_id=run_id, attempts=0,
+                      idempotency_key=idempotency_key, created_at=utcnow())
+            s.add(job)
+            s.flush()
+            out = job_dict(job)
+    except IntegrityError:          # a concurrent retry with the same key won the race
+        found = _by_key(store, idempotency_key, kind, params)
+        if found is None:
+            raise
+        return found, False
+    return out, True
+
+
+def _by_key(store: Store, key: str | None, kind: str, params: dict[str, Any]
+            ) -> dict[str, Any] | None:
+    with store.ReadSession() as s:
+        j = s.execute(select(Job).where(Job.idempotency_key == key)).scalar_one_or_none()
+        if j is None:
+            return None
+        if j.kind != kind or j.params != params:
+            raise IdempotencyConflict(f"Idempotency-Key {key!r} was used for job {j.id} with "
+                                      "different parameters")
+        return job_dict(j, _result_ids(s, j.id))
+
+
+def _result_ids(s, job_id: int) -> list[int]:
+    return list(s.execute(select(Result.id).where(Result.job_id == job_id)
+                          .order_by(Result.id)).scalars())
+
+
+def get_job(store: Store, job_id: int) -> dict[str, Any] | None:
+    with store.ReadSession() as s:
+        j = s.get(Job, job_id)
+        return None if j is None else job_dict(j, _result_ids(s, job_id))
+
+
+def list_jobs(store: Store, state: str | None = None, kind: str | None = None,
+              limit: int = 100, offset: int = 0) -> list[dict[str, Any]]:
+    q = select(Job).order_by(Job.id.desc()).limit(limit).offset(offset)
+    if state:
+        q = q.where(Job.status == state)
+    if kind:
+        q = q.where(Job.kind == kind)
+    with store.ReadSession() as s:
+        return [job_dict(j) for j in s.execute(q).scalars()]
+
+
+def cancel(store: Store, job_id: int) -> dict[str, Any] | None:
+    """Cancel a queued or running job (a running one stops at its next progress report, and
+    its results are never stored). A finished job is left as it is."""
+    with store.Session.begin() as s:
+        s.execute(update(Job).where(Job.id == job_id, Job.status.in_(ACTIVE))
+                  .values(status="cancelled", finished_at=utcnow(),
+                          error="cancelled by request"))
+    return get_job(store, job_id)
+
+
+def claim(store: Store, worker: str | None = None) -> dict[str, Any] | None:
+    """Atomically take the oldest queued job for this worker; None when the queue is empty."""
+    worker = worker or worker_name()
+    now = utcnow()
+    with store.Session.begin() as s:
+        jid = s.execute(select(Job.id).where(Job.status == "queued").order_by(Job.id).limit(1)
+                        .with_for_update(skip_locked=True)).scalar()
+        if jid is None:
+            return None
+        res = s.execute(update(Job).where(Job.id == jid, Job.status == "queued")
+                        .values(status="running", worker=worker, worker_pid=os.getpid(),
+                                started_at=now, heartbeat_at=now, progress=0.0, error=None,
+                                attempts=Job.attempts + 1))
+        if res.rowcount != 1:
+            return None
+        return job_dict(s.get(Job, jid))
+
+
+def _mine(job_id: int, worker: str):
+    return (Job.id == job_id, Job.status == "running", Job.worker == worker)
+
+
+def heartbeat(store: Store, job_id: int, worker: str, progress: float | None = None) -> str | None:
+    """Stamp a running job as alive (and its progress); returns the job's state now
+    ('running' while it is still ours)."""
+    vals: dict[str, Any] = {"heartbeat_at": utcnow()}
+    if progress is not None:
+        vals["progress"] = float(progress)
+    with store.Session.begin() as s:
+        res = s.execute(update(Job).where(*_mine(job_id, worker)).values(**vals))
+        if res.rowcount:
+            return "running"
+        return s.execute(select(Job.status).where(Job.id == job_id)).scalar()
+
+
+def finish(store: Store, job_id: int, worker: str, results: list) -> bool:
+    """Store a job's results (fits, linked to their runs) and mark it 'succeeded', in one
+    transaction; False (nothing stored) when the job is no longer ours and running."""
+    now = utcnow()
+    with store.Session.begin() as s:
+        res = s.execute(update(Job).where(*_mine(job_id, worker))
+                        .values(status="succeeded", progress=1.0, finished_at=now,
+                                heartbeat_at=now))
+        if res.rowcount != 1:
+            return False            # nothing written in this transaction
+        for r in results:
+            fit = r.fit
+            draws = None if fit.draws is None else np.ascontiguousarray(fit.draws, dtype="<f8")
+            rid = s.execute(insert(Result).values(
+                job_id=job_id, model=fit.model, method=fit.method, fit=fit.as_dict(),
+                draws=None if draws is None else draws.tobytes(),
+                draws_shape=None if draws is None else list(draws.shape),
+                created_at=now).returning(Result.id)).scalar_one()
+            for run_id, role in r.runs.items():
+                s.execute(insert(ResultRun).values(result_id=rid, run_id=run_id, role=role))
+    return True
+
+
+def fail(store: Store, job_id: int, worker: str, error: BaseException | str) -> bool:
+    """Mark a running job of ours 'failed' with its error (type, message, traceback tail)."""
+    if isinstance(error, BaseException):
+        tb = "".join(traceback.format_exception(error)[-6:])
+        text = f"{type(error).__name__}: {error}\n{tb}"
+    else:
+        text = str(error)
+    with store.Session.begin() as s:
+        res = s.execute(update(Job).where(*_mine(job_id, worker))
+                        .values(status="failed", error=text[:20000], finished_at=utcnow()))
+        return res.rowcount == 1
+
+
+def _worker_gone(worker: str | None, beat: datetime | None, now: datetime, stale_s: float) -> bool:
+    host, pid, token = (worker or "//").split("/", 2)
+    if host == socket.gethostname() and pid.isdigit():
+        alive = process_token(int(pid))
+        return alive is None or (alive != "alive" and token not in ("None", alive))
+    return beat is None or now - beat > timedelta(seconds=stale_s)
+
+
+def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2) -> list[int]:
+    """Jobs left 'running' by a worker that is gone (its process ended on this host, or no
+    heartbeat for stale_s from another host): re-queued while attempts < max_attempts, else
+    'failed' with the reason. Returns their ids."""
+    now = utcnow()
+    with store.ReadSession() as s:
+        rows = s.execute(select(Job.id, Job.worker, Job.heartbeat_at, Job.attempts)
+                         .where(Job.status == "running")).all()
+    lost = []
+    for jid, worker, beat, attempts in rows:
+        if not _worker_gone(worker, aware_utc(beat), now, stale_s):
+            continue
+        reason = (f"worker {worker} was lost while running the job "
+                  f"(last heartbeat {(aware_utc(beat) or now).isoformat()})")
+        with store.Session.begin() as s:
+            cond = (Job.id == jid, Job.status == "running", Job.worker == worker)
+            if attempts < max_attempts:
+                res = s.execute(update(Job).where(*cond).values(
+                    status="queued", worker=None, worker_pid=None, progress=None,
+                    error=reason + "; re-queued"))
+            else:
+                res = s.execute(update(Job).where(*cond).values(
+                    status="failed", finished_at=now,
+                    error=reason + f"; failed after {attempts} attempts"))
+            if res.rowcount:
+                lost.append(jid)
+    return lost
+
+
+def results_of(store: Store, job_id: int) -> list[dict[str, Any]]:
+    """A job's stored results: id, model, method, fit (Fit.as_dict), draws shape, runs."""
+    with store.ReadSession() as s:
+        rows = s.execute(select(Result).where(Result.job_id == job_id)
+                         .order_by(Result.id)).scalars().all()
+        out = []
+        for r in rows:
+            links = s.execute(select(ResultRun.run_id, ResultRun.role)
+                              .where(ResultRun.result_id == r.id)).all()
+            out.append({"id": r.id, "model": r.model, "method": r.method, "fit": r.fit,
+                        "draws_shape": r.draws_shape,
+                        "runs": [{"run_id": a, "role": b} for a, b in links],
+                        "created_at": aware_utc(r.created_at)})
+        return out
+
+
+def fits_of(store: Store, job_id: int) -> list:
+    """A job's results rebuilt as estimator.result.Fit objects (with their draws) for plots
+    and tables."""
+    from estimator.result import Fit
+
+    with store.ReadSession() as s:
+        rows = s.execute(select(Result).where(Result.job_id == job_id)
+                         .order_by(Result.id)).scalars().all()
+        fits = []
+        for r in rows:
+            d = r.fit
+            p = d["params"]
+            draws = None
+            if r.draws is not None and r.draws_shape:
+                draws = np.frombuffer(r.draws, dtype="<f8").reshape(r.draws_shape)
+            fits.append(Fit(
+                model=d["model"], method=d["method"], param_names=[x["name"] for x in p],
+                units=[x["unit"] for x in p], mean=np.array([x["mean"] for x in p]),
+                sd=np.array([x["sd"] for x in p]), ci_low=np.array([x["ci_low"] for x in p]),
+                ci_high=np.array([x["ci_high"] for x in p]), sigma=d["sigma"],
+                rmse_train=d["rmse_train"], rmse_test=d["rmse_test"], draws=draws,
+                diagnostics=d.get("diagnostics") or {}, timings=d.get("timings") or {},
+                extra=d.get("extra") or {}))
+        return fits
+
+
+def results_for_run(store: Store, run_id: int) -> list[dict[str, Any]]:
+    """The stored results that used a run: result id, job id, model, method and the run's role."""
+    q = (select(Result.id, Result.job_id, Result.model, Result.method, ResultRun.role)
+         .join(ResultRun, ResultRun.result_id == Result.id)
+         .where(ResultRun.run_id == run_id).order_by(Result.id))
+    with store.ReadSession() as s:
+        return [{"result_id": a, "job_id": b, "model": c, "method": d, "role": e}
+                for a, b, c, d, e in s.execute(q).all()]

@@ -1,0 +1,141 @@
+"""/runs: list and filter, detail, channel data (time range, decimation), per-phase aggregates
+(SQL) and acceptance indicators (Table 11). Viewer role."""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime
+from enum import IntEnum
+from typing import Any, Literal
+
+import numpy as np
+from fastapi import APIRouter, HTTPException, Query
+from sqlalchemy import select
+
+from api.deps import ERRORS, Id, MAX_ID, StoreDep, Viewer
+from api.queue import aware_utc, results_for_run
+from db.models import Rig, Run
+from db.store import RunNotFound
+
+router = APIRouter(prefix="/runs", tags=["runs"], responses=ERRORS)
+
+class Direction(IntEnum):
+    """Sense of motion of a run (meta 'direction')."""
+    forward = 1
+    reverse = -1
+
+
+MAX_POINTS = 100_000
+"""Most samples per channel one data request returns (ask for decimation beyond)."""
+
+
+def _summary(r: Run, rig: str | None) -> dict[str, Any]:
+    meta = r.meta or {}
+    return {"id": r.id, "rig": rig, "scheme": r.scheme, "source": r.source, "status": r.status,
+            "exit_status": r.exit_status, "motor_speed_rpm": meta.get("motor_speed_rpm"),
+            "direction": meta.get("direction"), "started_at": aware_utc(r.started_at),
+            "stopped_at": aware_utc(r.stopped_at), "n_samples": r.n_samples, "t_last": r.t_last}
+
+
+@router.get("", summary="List runs, newest first, with filters")
+def list_runs(store: StoreDep, _: Viewer,
+              scheme: int | None = Query(None, ge=1, le=3),
+              speed: float | None = Query(None, ge=0, le=1e5, description="motor speed [r/min]"),
+              direction: Direction | None = Query(None, description="+1 or -1"),
+              rig: str | None = Query(None, max_length=200),
+              status: Literal["running", "finished", "interrupted"] | None = None,
+              source: str | None = Query(None, max_length=20),
+              started_after: datetime | None = None, started_before: datetime | None = None,
+              limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, ge=0, le=MAX_ID)
+              ) -> list[dict[str, Any]]:
+    q = select(Run, Rig.name).outerjoin(Rig, Rig.id == Run.rig_id).order_by(Run.id.desc())
+    if scheme is not None:
+        q = q.where(Run.scheme == scheme)
+    if speed is not None:
+        q = q.where(Run.meta["motor_speed_rpm"].as_float() == speed)
+    if direction is not None:
+        q = q.where(Run.meta["direction"].as_integer() == int(direction))
+    if rig:
+        q = q.where(Rig.name == rig)
+    if status:
+        q = q.where(Run.status == status)
+    if source:
+        q = q.where(Run.source == source)
+    if started_after is not None:
+        q = q.where(Run.started_at >= started_after)
+    if started_before is not None:
+        q = q.where(Run.started_at < started_before)
+    with store.ReadSession() as s:
+        return [_summary(r, name) for r, name in s.execute(q.limit(limit).offset(offset)).all()]
+
+
+def _info(store, run_id: int) -> dict[str, Any]:
+    try:
+        return store.run_info(run_id)
+    except RunNotFound:
+        raise HTTPException(404, f"no run {run_id}") from None
+
+
+@router.get("/{run_id}", summary="A run: status, metadata, channels, interruptions, results using it")
+def get_run(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
+    info = _info(store, run_id)
+    info["channels"] = store.channels(run_id)
+    info["interruptions"] = store.interruptions(run_id)
+    info["results"] = results_for_run(store, run_id)
+    return info
+
+
+def _jsonable(a: np.ndarray) -> list:
+    if a.dtype == object:
+        return [None if v is None else v for v in a.tolist()]
+    return [None if not math.isfinite(v) else v for v in a.tolist()]
+
+
+@router.get("/{run_id}/data", summary="Channel samples in a time range, decimated")
+def run_data(run_id: Id, store: StoreDep, _: Viewer,
+             channels: str | None = Query(None, max_length=2000,
+                                          description="comma-separated channel names (default all)"),
+             t_start: float | None = Query(None, ge=-1e12, le=1e12, description="from this run time [s]"),
+             t_end: float | None = Query(None, ge=-1e12, le=1e12, description="up to this run time [s]"),
+             every: int = Query(1, ge=1, le=MAX_ID, description="keep every n-th sample"),
+             max_points: int = Query(10_000, ge=1, le=MAX_POINTS,
+                                     description="decimate further to at most this many")
+             ) -> dict[str, Any]:
+    _info(store, run_id)
+    names = None
+    if channels:
+        names = [c.strip() for c in channels.split(",") if c.strip()]
+        names = ["t"] + [c for c in names if c != "t"]
+    try:
+        arrays = store.load_arrays(run_id, names)
+    except KeyError as e:           # a channel the run does not have
+        raise HTTPException(404, str(e.args[0] if e.args else e)) from None
+    t = arrays["t"]
+    mask = np.ones(t.shape, dtype=bool)
+    if t_start is not None:
+        mask &= t >= t_start
+    if t_end is not None:
+        mask &= t <= t_end
+    idx = np.flatnonzero(mask)[::every]
+    step = max(1, math.ceil(idx.size / max_points))
+    idx = idx[::step]
+    return {"run_id": run_id, "n": int(idx.size), "every": every * step,
+            "channels": {k: _jsonable(v[idx]) for k, v in arrays.items()}}
+
+
+@router.get("/{run_id}/aggregates", summary="Per-phase mean, variance, min, max, count (SQL)")
+def run_aggregates(run_id: Id, store: StoreDep, _: Viewer, by_phase: bool = True
+                   ) -> list[dict[str, Any]]:
+    from api.reports import json_clean
+    _info(store, run_id)
+    return json_clean(store.phase_aggregates(run_id, by_phase=by_phase).to_dict(orient="records"))
+
+
+@router.get("/{run_id}/acceptance", summary="Acceptance indicators (Table 11) with pass/fail")
+def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
+    from api.reports import json_clean
+    from rig.acceptance import acceptance
+    _info(store, run_id)
+    ind = [i.as_dict() for i in acceptance(store.load_run(run_id))]
+    judged = [i["passed"] for i in ind if i["passed"] is not None]
+    return json_clean({"run_id": run_id, "passed": all(judged) if judged else None, "indicators": ind})

@@ -1,0 +1,161 @@
+"""The job worker: a separate process that claims queued jobs from SQL and runs them (never in
+the web process, never in FastAPI BackgroundTasks). `python -m api.worker` runs one; the
+service starts a pool of them (WorkerPool) and stops them with it.
+
+Each loop turn (`run_once`) first re-queues jobs whose worker is gone (api.queue.recover_lost),
+then claims one job and runs it: a heartbeat thread stamps the job every
+RIG_JOB_HEARTBEAT_S; progress reports check for cancellation; the results are written with the
+job's end in one transaction; an exception ends the job 'failed' with its error."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from typing import Any
+
+log = logging.getLogger("rig.worker")
+
+
+class Worker:
+    """One worker process's loop over the queue of the database at `db_url`."""
+
+    def __init__(self, db_url: str | None = None, heartbeat_s: float = 2.0,
+                 stale_s: float = 30.0, max_attempts: int = 2):
+        from api.queue import worker_name
+        from db.store import Store
+
+        self.store = Store(db_url)
+        self.name = worker_name()
+        self.heartbeat_s = heartbeat_s
+        self.stale_s = stale_s
+        self.max_attempts = max_attempts
+        self.stopping = threading.Event()
+
+    def run_once(self) -> int | None:
+        """Recover lost jobs, then claim and run one job; returns its id (None: queue empty)."""
+        from api import queue
+
+        queue.recover_lost(self.store, self.stale_s, self.max_attempts)
+        job = queue.claim(self.store, self.name)
+        if job is None:
+            return None
+        self.run_job(job)
+        return job["id"]
+
+    def run_job(self, job: dict[str, Any]) -> None:
+        from api import queue
+        from api.job_kinds import KINDS, JobCancelled
+
+        jid = job["id"]
+        done = threading.Event()
+
+        def beat() -> None:
+            while not done.wait(self.heartbeat_s):
+                try:
+                    queue.heartbeat(self.store, jid, self.name)
+                except Exception:  # a missed beat is retried; the job goes on
+                    log.exception("heartbeat of job %s failed", jid)
+
+        def progress(x: float) -> None:
+            if queue.heartbeat(self.store, jid, self.name, progress=x) != "running":
+                raise JobCancelled(f"job {jid} is no longer running here")
+
+        t = threading.Thread(target=beat, name=f"job-{jid}-heartbeat", daemon=True)
+        t.start()
+        try:
+            kind = KINDS.get(job["kind"])
+            if kind is None:
+                raise ValueError(f"unknown job kind {job['kind']!r}")
+            params = kind.params.model_validate(job["params"])
+            progress(0.05)
+            results = kind.run(self.store, params, progress)
+            progress(0.95)
+            if not queue.finish(self.store, jid, self.name, results):
+                log.info("job %s was cancelled or taken over; its results are discarded", jid)
+        except JobCancelled as e:
+            log.info("%s", e)
+        except Exception as e:  # the job's own failure: recorded, the worker goes on
+            log.exception("job %s failed", jid)
+            queue.fail(self.store, jid, self.name, e)
+        finally:
+            done.set()
+            t.join()
+
+    def serve(self, poll_s: float = 0.5, max_jobs: int | None = None) -> None:
+        """Loop until stopped (SIGTERM/SIGINT) or `max_jobs` jobs ran."""
+        ran = 0
+        while not self.stopping.is_set():
+            jid = self.run_once()
+            if jid is None:
+                self.stopping.wait(poll_s)
+                continue
+            ran += 1
+            if max_jobs is not None and ran >= max_jobs:
+                break
+
+
+def worker_command(db_url: str) -> list[str]:
+    """The command line of one worker process on the database at `db_url`."""
+    return [sys.executable, "-m", "api.worker", "--db", db_url]
+
+
+class WorkerPool:
+    """`n` worker processes on the database at `db_url`, started and stopped together."""
+
+    def __init__(self, db_url: str, n: int, env: dict[str, str] | None = None):
+        self.db_url, self.n = db_url, n
+        self.env = env
+        self.procs: list[subprocess.Popen] = []
+
+    def start(self) -> "WorkerPool":
+        env = {**os.environ, **(self.env or {})}
+        self.procs = [subprocess.Popen(worker_command(self.db_url), env=env)
+                      for _ in range(self.n)]
+        return self
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        """SIGTERM each worker (it ends after its current job's next step), SIGKILL after
+        timeout_s; a job killed with its worker is re-queued by the next recovery."""
+        for p in self.procs:
+            if p.poll() is None:
+                p.terminate()
+        deadline = time.monotonic() + timeout_s
+        for p in self.procs:
+            try:
+                p.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        self.procs = []
+
+
+def main(argv: list[str] | None = None) -> int:
+    from api.settings import Settings
+
+    ap = argparse.ArgumentParser(prog="python -m api.worker", description=__doc__.split("\n")[0])
+    ap.add_argument("--db", help="database URL (default env RIG_DB_URL)")
+    ap.add_argument("--poll", type=float, default=0.5, help="queue poll interval when idle [s]")
+    ap.add_argument("--max-jobs", type=int, help="exit after this many jobs")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s worker %(process)d %(message)s")
+    logging.getLogger("alembic").setLevel(logging.WARNING)
+    st = Settings.from_env(db_url=args.db)
+    w = Worker(st.db_url, st.job_heartbeat_s, st.job_stale_s, st.job_max_attempts)
+
+    def stop(*_):
+        w.stopping.set()
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    w.serve(args.poll, args.max_jobs)
+    w.store.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

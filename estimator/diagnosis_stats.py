@@ -1,0 +1,183 @@
+"""Statistics of the sim-to-real diagnosis (estimator.diagnosis): batch-means standard errors,
+block bootstrap intervals, and the residual structure tests (whiteness, residual–input
+cross-correlation, spectral lines in time and in output angle).
+
+Residuals are autocorrelated when the model lacks something, so every standard error here is a
+batch-means one: per run, consecutive samples are grouped into blocks of `block` samples and the
+spread of the block sums gives the standard error of a mean (valid for weakly dependent series
+whose correlation length is shorter than a block).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+
+def block_ids(run: np.ndarray, block: int) -> np.ndarray:
+    """Block index of each sample: consecutive `block`-sample stretches within each run
+    (run: (n,) int run index, samples of a run contiguous and in time order)."""
+    run = np.asarray(run)
+    out = np.empty(run.size, dtype=np.int64)
+    nxt = 0
+    for r in np.unique(run):
+        idx = np.flatnonzero(run == r)
+        b = np.arange(idx.size) // max(1, int(block))
+        out[idx] = b + nxt
+        nxt += int(b.max()) + 1 if b.size else 0
+    return out
+
+
+def mean_se(v: np.ndarray, blocks: np.ndarray) -> tuple[float, float]:
+    """Mean of v and its batch-means standard error (blocks: block index of each sample).
+    Fewer than 3 blocks: the SE is +inf (no claim is made)."""
+    v = np.asarray(v, dtype=float)
+    if v.size == 0:
+        return 0.0, float("inf")
+    m = float(v.mean())
+    ub, inv = np.unique(blocks, return_inverse=True)
+    if ub.size < 3:
+        return m, float("inf")
+    sums = np.bincount(inv, weights=v - m)
+    se = float(np.sqrt(np.sum(sums ** 2) * ub.size / (ub.size - 1))) / v.size
+    return m, se
+
+
+def bootstrap_shrinkage(e0: np.ndarray, e1: np.ndarray, blocks: np.ndarray, n_boot: int = 400,
+                        seed: int = 0, level: float = 0.95) -> tuple[float, float, float]:
+    """Shrinkage 1 − rmse(e1)/rmse(e0) and its block-bootstrap percentile interval (blocks of
+    consecutive samples resampled with replacement, so autocorrelation is kept)."""
+    e0 = np.asarray(e0, dtype=float)
+    e1 = np.asarray(e1, dtype=float)
+    if e0.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    point = 1.0 - float(np.sqrt(np.sum(e1 ** 2) / np.sum(e0 ** 2)))
+    ub, inv = np.unique(blocks, return_inverse=True)
+    if ub.size < 3:
+        return point, float("nan"), float("nan")
+    s0 = np.bincount(inv, weights=e0 ** 2)
+    s1 = np.bincount(inv, weights=e1 ** 2)
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, ub.size, size=(n_boot, ub.size))
+    b = 1.0 - np.sqrt(s1[pick].sum(axis=1) / np.maximum(s0[pick].sum(axis=1), 1e-300))
+    a = (1.0 - level) / 2.0
+    return point, float(np.quantile(b, a)), float(np.quantile(b, 1.0 - a))
+
+
+def acf(x: np.ndarray, max_lag: int) -> np.ndarray:
+    """Sample autocorrelation at lags 1..max_lag."""
+    x = np.asarray(x, dtype=float) - np.mean(x)
+    d = float(x @ x)
+    if d <= 0 or x.size <= max_lag + 1:
+        return np.zeros(max_lag)
+    return np.array([float(x[:-k] @ x[k:]) / d for k in range(1, max_lag + 1)])
+
+
+def whiteness(residual: np.ndarray, run: np.ndarray, max_lag: int = 10) -> dict:
+    """Ljung–Box test per run on the first `max_lag` autocorrelations; reports the smallest
+    p-value (Bonferroni over runs) and the largest |autocorrelation| (the effect size)."""
+    ps, worst = [], 0.0
+    for r in np.unique(run):
+        x = residual[run == r]
+        n = x.size
+        if n <= 4 * max_lag:
+            continue
+        rho = acf(x, max_lag)
+        q = n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, max_lag + 1)))
+        ps.append(float(stats.chi2.sf(q, max_lag)))
+        worst = max(worst, float(np.max(np.abs(rho))))
+    p = min(1.0, min(ps) * len(ps)) if ps else 1.0
+    return {"test": "Ljung–Box", "lags": max_lag, "p_value": p, "max_abs_acf": worst}
+
+
+def cross_correlation(residual: np.ndarray, inputs: dict[str, np.ndarray], run: np.ndarray,
+                      max_lag: int = 10) -> dict:
+    """Largest normalised residual–input cross-correlation over lags −max_lag..max_lag, per input,
+    pooled over runs (each run's series centred), with the white-noise 99.9 % bound."""
+    out = {}
+    n_total = residual.size
+    for name, u in inputs.items():
+        best, best_lag = 0.0, 0
+        for lag in range(-max_lag, max_lag + 1):
+            num, d1, d2 = 0.0, 0.0, 0.0
+            for r in np.unique(run):
+                m = run == r
+                e = residual[m] - residual[m].mean()
+                x = u[m] - u[m].mean()
+                if e.size <= abs(lag) + 2:
+                    continue
+                if lag >= 0:
+                    a, b = e[lag:], x[:e.size - lag]
+                else:
+                    a, b = e[:lag], x[-lag:]
+                num += float(a @ b)
+                d1 += float(a @ a)
+                d2 += float(b @ b)
+            rho = num / np.sqrt(d1 * d2) if d1 > 0 and d2 > 0 else 0.0
+            if abs(rho) > abs(best):
+                best, best_lag = rho, lag
+        out[name] = {"max_corr": float(best), "lag": int(best_lag)}
+    bound = float(stats.norm.isf(0.0005 / max(1, 2 * max_lag + 1)) / np.sqrt(max(n_total, 1)))
+    return {"inputs": out, "bound": bound}
+
+
+def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
+    """Fisher's g test for one dominant line in each run's residual periodogram (detrended);
+    the smallest Bonferroni p-value, its frequency [Hz] and the line's share of the variance."""
+    best = {"p_value": 1.0, "freq_hz": None, "share": 0.0}
+    runs = np.unique(run)
+    for r in runs:
+        m = run == r
+        x = residual[m]
+        if x.size < 64:
+            continue
+        dt = float(np.median(np.diff(t[m])))
+        x = x - np.polyval(np.polyfit(np.arange(x.size), x, 1), np.arange(x.size))
+        spec = np.abs(np.fft.rfft(x)) ** 2
+        spec = spec[1:-1] if x.size % 2 == 0 else spec[1:]
+        if spec.size < 8 or spec.sum() <= 0:
+            continue
+        k = int(np.argmax(spec))
+        g = float(spec[k] / spec.sum())
+        mm = spec.size
+        p = min(1.0, mm * (1.0 - g) ** (mm - 1)) * runs.size
+        if p < best["p_value"]:
+            best = {"p_value": float(min(1.0, p)), "freq_hz": float((k + 1) / (x.size * dt)),
+                    "share": g}
+    return best
+
+
+def angle_lines(residual: np.ndarray, q: np.ndarray, orders: np.ndarray) -> dict:
+    """Amplitude of the residual's projection on sin/cos(k·q) for each order k [cycles/rev]
+    (least squares on the two columns), the peak order, its amplitude [residual unit] and its
+    F statistic against the residual variance (whether q covers enough angle is up to the
+    data: with little angle travel every order looks alike and F stays small)."""
+    n = residual.size
+    var = float(np.var(residual))
+    best = {"order": None, "amplitude": 0.0, "F": 0.0, "p_value": 1.0}
+    if n < 20 or var <= 0:
+        return best
+    ee = float(residual @ residual)
+    orders = np.asarray(orders, dtype=float)
+    F = np.zeros(orders.size)
+    amp = np.zeros(orders.size)
+    for i0 in range(0, orders.size, 32):  # 32 orders at a time: bounded memory
+        k = orders[i0:i0 + 32, None]
+        S, C = np.sin(k * q[None, :]), np.cos(k * q[None, :])
+        ss, sc, cc = np.einsum("ij,ij->i", S, S), np.einsum("ij,ij->i", S, C), \
+            np.einsum("ij,ij->i", C, C)
+        bs, bc = S @ residual, C @ residual
+        det = ss * cc - sc ** 2
+        ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
+        a_s = np.where(ok, (cc * bs - sc * bc) / np.where(ok, det, 1.0), 0.0)
+        a_c = np.where(ok, (ss * bc - sc * bs) / np.where(ok, det, 1.0), 0.0)
+        fit = a_s * bs + a_c * bc
+        F[i0:i0 + 32] = (fit / 2.0) / np.maximum((ee - fit) / (n - 2), 1e-300)
+        amp[i0:i0 + 32] = np.hypot(a_s, a_c)
+    j = int(np.argmax(F))
+    if F[j] > 0:
+        best = {"order": int(orders[j]), "amplitude": float(amp[j]), "F": float(F[j])}
+    best["top_orders"] = [int(orders[i]) for i in np.argsort(-F)[:5]]
+    best["p_value"] = float(min(1.0, stats.f.sf(best["F"], 2, n - 2) * len(orders))) \
+        if best["order"] is not None else 1.0
+    return best

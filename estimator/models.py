@@ -1,0 +1,301 @@
+"""Linear-in-parameter models as compositions of terms (issue 5: "models are compositions of terms,
+so an effect from rig.md's vocabulary can be added to any of them").
+
+A `Term` produces one or more regressor columns from prepared signals (estimator.preprocess),
+each column with its parameter name and unit; a `LinearModel` is a target y and a tuple of terms,
+y = X·θ + e. The physics comes from rig.terms and rig.effects only:
+
+- `eq4()`   Eq. 4, θ = (I_xx, mr_x, mr_y, f_v, f_c), X = rig.terms.eq4_regressor(q, q̇, q̈),
+            y = T − τ_L (the measured load; zero when the run has none).
+- `eq5()`   Eq. 5, the classical elastic joint: T = k·Δ + D·Δ̇ (+ C, a torque offset).
+- `eq11(alpha, beta, gamma, n)`  Eq. 11 with the Bouc–Wen state x known: θ = (k_u, k_h, f_v,
+            D+f_c, C), X = rig.terms.eq11_regressor(Δ, Δ̇, x), x integrated along the twist with
+            the shared Bouc–Wen step for the given (α, β, γ, n); y = T.
+- `linear_model(name, target, columns)`  any model from named columns (e.g. EMPS:
+            force = M·q̈ + Fv·q̇ + Fc·sgn q̇ + offset).
+- `LinearModel.with_effect(name, **shape)` adds an effect of rig.effects.VOCABULARY as extra
+  columns: its term function evaluated at unit magnitude (the magnitude is the new parameter);
+  shape parameters (e.g. Stribeck's v_s) are fixed at the given or default values. Effects whose
+  magnitude enters non-linearly are linearised around zero as documented in `_effect_term`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping
+
+import numpy as np
+
+from rig import effects as fx
+from rig.params import JointParams
+from rig.terms import eq4_regressor, eq11_regressor, smooth_sign
+
+_P = JointParams()
+V_EPS = _P.v_eps
+"""Speed scale of the smoothed sign used by every friction column [rad/s] (rig.params)."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """Regressor columns from signals: `fn(signals) -> (n, k)` with k = len(names)."""
+
+    label: str
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    fn: Callable[[Mapping[str, np.ndarray]], np.ndarray]
+    requires: tuple[str, ...] = ()
+
+    def columns(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        c = np.asarray(self.fn(sig), dtype=float)
+        return c[:, None] if c.ndim == 1 else c
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    name: str
+    terms: tuple[Term, ...]
+    target_fn: Callable[[Mapping[str, np.ndarray]], np.ndarray]
+    target_label: str
+    target_unit: str
+    target_requires: tuple[str, ...]
+    kind: str = "generic"
+    """'output' (Eq. 4's balance), 'transmission' (twist–torque laws) or 'generic'."""
+    effects: tuple[str, ...] = ()
+    descriptions: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def param_names(self) -> list[str]:
+        return [n for t in self.terms for n in t.names]
+
+    @property
+    def units(self) -> list[str]:
+        return [u for t in self.terms for u in t.units]
+
+    @property
+    def requires(self) -> tuple[str, ...]:
+        """Signals (estimator.preprocess names) the model needs."""
+        req = list(self.target_requires)
+        for t in self.terms:
+            req.extend(t.requires)
+        return tuple(dict.fromkeys(req))
+
+    def design(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Observation matrix X (n, p)."""
+        return np.column_stack([t.columns(sig) for t in self.terms])
+
+    def target(self, sig: Mapping[str, np.ndarray]) -> np.ndarray:
+        return np.asarray(self.target_fn(sig), dtype=float)
+
+    def predict(self, sig: Mapping[str, np.ndarray], theta: np.ndarray) -> np.ndarray:
+        return self.design(sig) @ np.asarray(theta, dtype=float)
+
+    def with_effect(self, name: str, **shape: float) -> "LinearModel":
+        """This model plus the effect `name` of rig.md's vocabulary as extra regressor
+        column(s); `shape` overrides the effect's non-magnitude parameters."""
+        term = _effect_term(self, name, shape)
+        clash = set(term.names) & set(self.param_names)
+        if clash:
+            raise ValueError(f"model {self.name!r} already has parameter(s) {sorted(clash)}")
+        return replace(self, name=f"{self.name}+{name}", terms=self.terms + (term,),
+                       effects=self.effects + (name,))
+
+
+# --- the paper's models -------------------------------------------------------------------------
+
+def _eq4_target(s):
+    return s["torque"] - s["torque_load"]
+
+
+def eq4(v_eps: float = V_EPS) -> LinearModel:
+    """Eq. 4 with the measured load: T − τ_L = I·q̈ + g·(mr_x·sin q + mr_y·cos q) + f_v·q̇ +
+    f_c·sgn q̇."""
+    term = Term("rigid body (Eq. 4)", ("I_xx", "mr_x", "mr_y", "f_v", "f_c"),
+                ("kg·m²", "kg·m", "kg·m", "N·m·s/rad", "N·m"),
+                lambda s: eq4_regressor(s["q"], s["qd"], s["qdd"], v_eps), ("q", "qd", "qdd"))
+    return LinearModel("eq4", (term,), _eq4_target, "T − τ_L", "N·m", ("torque", "torque_load"),
+                       kind="output",
+                       descriptions={"I_xx": "moment of inertia about the joint axis",
+                                     "mr_x": "first mass moment, x", "mr_y": "first mass moment, y",
+                                     "f_v": "viscous friction coefficient",
+                                     "f_c": "Coulomb friction torque"})
+
+
+def eq5(offset: bool = True) -> LinearModel:
+    """Eq. 5, the elastic joint without hysteresis: T = k·Δ + D·Δ̇ (+ C)."""
+    terms = [Term("elastic (Eq. 5)", ("k", "D"), ("N·m/rad", "N·m·s/rad"),
+                  lambda s: np.column_stack([s["torsion"], s["torsion_rate"]]),
+                  ("torsion", "torsion_rate"))]
+    if offset:
+        terms.append(Term("offset", ("C",), ("N·m",), lambda s: np.ones_like(s["torsion"]),
+                          ("torsion",)))
+    return LinearModel("eq5", tuple(terms), lambda s: s["torque"], "T", "N·m", ("torque",),
+                       kind="transmission",
+                       descriptions={"k": "transmission stiffness", "D": "transmission damping",
+                                     "C": "constant torque"})
+
+
+def bouc_wen_x(sig: Mapping[str, np.ndarray], alpha: float, beta: float, gamma: float,
+               n: int = 1) -> np.ndarray:
+    """Bouc–Wen state x [rad] along the twist Δ of the signals (restarted at 0 at each run's
+    first sample when several runs are concatenated), integrated with the shared step."""
+    from estimator.bouc_wen_kernel import bw_state  # the compiled rig.terms.bouc_wen_step loop
+    delta = np.asarray(sig["torsion"], dtype=float)
+    run = np.asarray(sig["run"]) if "run" in sig else np.zeros(delta.size, dtype=int)
+    x = np.empty_like(delta)
+    for r in np.unique(run):
+        m = run == r
+        x[m] = bw_state(delta[m], alpha, beta, gamma, n) if m.sum() >= 2 else 0.0
+    return x
+
+
+def eq11(alpha: float = _P.alpha, beta: float = _P.beta, gamma: float = _P.gamma, n: int = _P.n,
+         v_eps: float = V_EPS) -> LinearModel:
+    """Eq. 11 as the paper fits it, with x known from (α, β, γ, n): T = k_u·Δ + k_h·x +
+    f_v·sgn Δ̇ + (D+f_c)·Δ̇ + C."""
+    def cols(s):
+        return eq11_regressor(s["torsion"], s["torsion_rate"],
+                              bouc_wen_x(s, alpha, beta, gamma, n), v_eps)
+    term = Term(f"Bouc–Wen output (Eq. 11; α={alpha:g}, β={beta:g}, γ={gamma:g}, n={n})",
+                ("k_u", "k_h", "f_v", "D+f_c", "C"),
+                ("N·m/rad", "N·m/rad", "N·m", "N·m·s/rad", "N·m"), cols,
+                ("torsion", "torsion_rate"))
+    return LinearModel("eq11", (term,), lambda s: s["torque"], "T", "N·m", ("torque",),
+                       kind="transmission",
+                       descriptions={"k_u": "elastic stiffness w·k", "k_h": "hysteretic stiffness (1−w)·k",
+                                     "f_v": "coefficient of sgn(Δ̇) (the paper's f_v)",
+                                     "D+f_c": "coefficient of Δ̇ (the paper's D + f_c)",
+                                     "C": "constant torque"})
+
+
+def linear_model(name: str, target: str | Callable, columns: Mapping[str, tuple],
+                 v_eps: float = V_EPS, target_unit: str = "") -> LinearModel:
+    """A model from named columns: columns = {param: (spec, unit)} where spec is a signal name,
+    'sgn(NAME)' (the smoothed sign of rig.terms), '1' (a constant), or a callable on the
+    signals. target is a signal name or a callable."""
+    terms = []
+    for pname, (spec, unit) in columns.items():
+        fn, req = _column_spec(spec, v_eps)
+        terms.append(Term(pname, (pname,), (unit,), fn, req))
+    if callable(target):
+        tfn, treq, tlabel = target, (), getattr(target, "__name__", "y")
+    else:
+        tfn, treq, tlabel = (lambda s, k=target: s[k]), (target,), target
+    return LinearModel(name, tuple(terms), tfn, tlabel, target_unit, treq, kind="generic")
+
+
+def _column_spec(spec, v_eps):
+    if callable(spec):
+        return spec, ()
+    spec = str(spec).strip()
+    if spec == "1":
+        return (lambda s: np.ones(len(s["t"]))), ("t",)
+    if spec.startswith("sgn(") and spec.endswith(")"):
+        k = spec[4:-1].strip()
+        return (lambda s, k=k: smooth_sign(s[k], v_eps)), (k,)
+    return (lambda s, k=spec: s[k]), (spec,)
+
+
+MODELS: dict[str, Callable[..., LinearModel]] = {"eq4": eq4, "eq5": eq5, "eq11": eq11}
+"""Linear models by name (Eq. 9, the nonlinear Bouc–Wen law, is fitted by estimator.bouc_wen)."""
+
+
+def model_from_spec(spec: str, **kw) -> LinearModel:
+    """'eq4', 'eq4+stribeck', 'eq11+gear_ripple:order=36+torque_offset' -> a LinearModel."""
+    base, *effs = [s.strip() for s in spec.split("+")]
+    if base not in MODELS:
+        raise ValueError(f"unknown linear model {base!r}; known: {sorted(MODELS)} (and 'eq9', "
+                         "fitted by the Bouc–Wen estimator)")
+    m = MODELS[base](**kw)
+    for e in effs:
+        name, _, args = e.partition(":")
+        shape = {}
+        for kv in filter(None, args.split(",")):
+            k, _, v = kv.partition("=")
+            shape[k.strip()] = float(v)
+        m = m.with_effect(name.strip(), **shape)
+    return m
+
+
+# --- effects as columns -----------------------------------------------------------------------
+
+def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> Term:
+    """The effect's term function at unit magnitude, as regressor column(s):
+
+    stribeck                  f_s · stribeck_torque(q̇, 1, v_s)                    (output)
+    load_dependent_friction   mu · load_dependent_friction_torque(q̇, T, 1)         (output; T is the
+                              measured torque, an errors-in-variables approximation)
+    temperature_friction      c_T · temperature_friction_torque(q̇, temp_joint, 1, T_ref) (output)
+    gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
+                              (the unknown phase made linear); one column A if `phase` is given
+    torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor)
+    time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
+    hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
+                              gamma, n) (transmission models without an x column, e.g. eq5)
+    backlash                  k_bl · (backlash_twist(Δ, b) − Δ): k·bt(Δ) = k·Δ + k·(bt(Δ) − Δ),
+                              so k_bl ≈ k when the dead zone is real (transmission models)
+    """
+    if name not in fx.VOCABULARY:
+        raise ValueError(f"unknown effect {name!r}; the vocabulary is {list(fx.EFFECT_NAMES)}")
+    eff = fx.VOCABULARY[name]
+    bw_keys = {"alpha", "beta", "gamma", "n"}
+    if name == "hysteresis":
+        bad = set(shape) - bw_keys
+        if bad:
+            raise ValueError(f"hysteresis takes the Bouc–Wen shape {sorted(bw_keys)}, not {sorted(bad)}")
+    else:
+        shape_params = {k: v for k, v in eff.resolve(shape).items() if k != eff.magnitude}
+        if eff.magnitude in shape:
+            raise ValueError(f"{eff.magnitude!r} is the magnitude of {name!r}: it is the parameter "
+                             "identified, not a shape to fix")
+    if eff.acts_on == "transmission" and model.kind != "transmission":
+        raise ValueError(f"effect {name!r} acts on the transmission (twist–torque law); add it "
+                         f"to a transmission model (eq5, eq11), not to {model.name!r}")
+    if eff.acts_on == "sensor" and model.kind == "generic" and name == "time_delay":
+        raise ValueError("time_delay is defined on the torque channel; it applies to eq4/eq5/eq11")
+    v_eps = V_EPS
+
+    if name == "stribeck":
+        v_s = shape_params["v_s"]
+        return Term(name, ("f_s",), ("N·m",),
+                    lambda s: fx.stribeck_torque(s["qd"], 1.0, v_s, v_eps), ("qd",))
+    if name == "load_dependent_friction":
+        return Term(name, ("mu",), ("-",),
+                    lambda s: fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps),
+                    ("qd", "torque"))
+    if name == "temperature_friction":
+        T_ref = shape_params["T_ref"]
+        return Term(name, ("c_T",), ("N·m/K",),
+                    lambda s: fx.temperature_friction_torque(s["qd"], s["temp_joint"], 1.0,
+                                                             T_ref, v_eps),
+                    ("qd", "temp_joint"))
+    if name == "gear_ripple":
+        order = shape_params["order"]
+        if "phase" in shape:
+            ph = shape_params["phase"]
+            return Term(name, ("A",), ("N·m",),
+                        lambda s: fx.gear_ripple_torque(s["q"], 1.0, order, ph), ("q",))
+        return Term(name, ("A_sin", "A_cos"), ("N·m", "N·m"),
+                    lambda s: np.column_stack([fx.gear_ripple_torque(s["q"], 1.0, order, 0.0),
+                                               fx.gear_ripple_torque(s["q"], 1.0, order,
+                                                                     np.pi / 2)]), ("q",))
+    if name == "torque_offset":
+        return Term(name, ("c0", "drift"), ("N·m", "N·m/s"),
+                    lambda s: np.column_stack([fx.torque_offset(s["t"], 1.0, 0.0)
+                                               * np.ones_like(s["t"]),
+                                               fx.torque_offset(s["t"], 0.0, 1.0)]), ("t",))
+    if name == "time_delay":
+        return Term(name, ("delay",), ("s",), lambda s: -s["torque_rate"], ("torque_rate",))
+    if name == "hysteresis":
+        if "k_h" in model.param_names:
+            raise ValueError(f"{model.name!r} already has the hysteretic term k_h·x")
+        a = float(shape.get("alpha", _P.alpha))
+        b = float(shape.get("beta", _P.beta))
+        g = float(shape.get("gamma", _P.gamma))
+        n = int(shape.get("n", _P.n))
+        return Term(name, ("k_h",), ("N·m/rad",), lambda s: bouc_wen_x(s, a, b, g, n),
+                    ("torsion",))
+    if name == "backlash":
+        b = shape_params["b"]
+        return Term(name, ("k_bl",), ("N·m/rad",),
+                    lambda s: fx.backlash_twist(s["torsion"], b) - s["torsion"], ("torsion",))
+    raise ValueError(f"effect {name!r} has no column form")  # pragma: no cover - vocabulary grew
