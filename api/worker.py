@@ -1,5 +1,5 @@
 """The job worker: a separate process that claims queued jobs from SQL and runs them (never in
-the web process, never in FastAPI BackgroundTasks). `python -m api.worker` runs one; the
+the web process, never in a web request's background task, which would die with it). `python -m api.worker` runs one; the
 service starts a pool of them (WorkerPool) and stops them with it.
 
 Each loop turn (`run_once`) first re-queues jobs whose worker is gone (api.queue.recover_lost),

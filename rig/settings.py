@@ -21,6 +21,8 @@ from typing import Any, Mapping
 from rig.params import RATED_TORQUE
 
 CAN_INTERFACES = ("socketcand", "virtual", "socketcan", "udp_multicast")
+"""python-can interfaces the DAQ accepts. udp_multicast is always opened with hop_limit=0
+(daq/drives.py), so its frames never leave this machine."""
 SOCKETCAND_PORT = 29536
 """socketcand's default TCP port."""
 OTHER_ENV = frozenset({
