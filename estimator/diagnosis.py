@@ -72,12 +72,12 @@ class DiagnosisOptions:
     """Smallest held-out RMSE shrinkage that counts (1 − after/before)."""
     max_effects: int = 3
     explained_fraction: float = 0.8
+    """Share of the structured residual mean square the chosen effects must remove."""
     min_structured: float = 0.05
     """With no effect chosen, the residual is called structured (`unexplained`) only when the
     tests flag it and its part above the white-noise floor is at least this share of its mean
     square (a materiality threshold: with thousands of samples the tests flag tiny leftovers,
     e.g. the emulator's stick–slip near zero speed that Eq. 4's smooth sign does not model)."""
-    """Share of the structured residual mean square the chosen effects must remove."""
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))

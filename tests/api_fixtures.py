@@ -6,12 +6,11 @@ a SQLite file, and a fresh PostgreSQL schema too when env RIG_TEST_PG_URL names 
 
 from __future__ import annotations
 
-import uuid
 from contextlib import contextmanager
 from dataclasses import dataclass
 
 import pytest
-from db_fixtures import PG_ENV, pg_base_url
+from db_fixtures import empty_database
 
 
 @dataclass
@@ -43,27 +42,8 @@ def store_runs(store) -> dict[str, int]:
 @contextmanager
 def database(kind: str, tmp_path_factory):
     """URL of an empty database of `kind` ('sqlite' or 'postgresql'), removed afterwards."""
-    if kind == "sqlite":
-        yield f"sqlite:///{tmp_path_factory.mktemp('api') / 'rig.sqlite'}"
-        return
-    base = pg_base_url()
-    if not base:
-        pytest.skip(f"PostgreSQL tests need a server: set {PG_ENV}=postgresql+psycopg://"
-                    "user@127.0.0.1:PORT/DB (.ci/run does)")
-    from sqlalchemy import create_engine, text
-    from sqlalchemy.engine import make_url
-
-    schema = f"t_{uuid.uuid4().hex[:12]}"
-    admin = create_engine(base)
-    with admin.begin() as conn:
-        conn.execute(text(f'CREATE SCHEMA "{schema}"'))
-    url = make_url(base).update_query_dict({"options": f"-csearch_path={schema}"})
-    try:
-        yield url.render_as_string(hide_password=False)
-    finally:
-        with admin.begin() as conn:
-            conn.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
-        admin.dispose()
+    with empty_database(kind, tmp_path_factory.mktemp("api")) as url:
+        yield url
 
 
 @pytest.fixture(scope="module", params=["sqlite", "postgresql"])

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import os
 import uuid
+from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 
@@ -16,11 +18,12 @@ def pg_base_url() -> str | None:
     return os.environ.get(PG_ENV) or None
 
 
-@pytest.fixture(params=["sqlite", "postgresql"])
-def db_url(request, tmp_path):
-    """URL of an empty database: a SQLite file, or a new PostgreSQL schema (dropped after)."""
-    if request.param == "sqlite":
-        yield f"sqlite:///{tmp_path / 'rig.sqlite'}"
+@contextmanager
+def empty_database(kind: str, directory: Path):
+    """URL of an empty database of `kind`: a SQLite file in `directory`, or a new PostgreSQL
+    schema (dropped afterwards; the test is skipped with the reason when no server is named)."""
+    if kind == "sqlite":
+        yield f"sqlite:///{directory / 'rig.sqlite'}"
         return
     base = pg_base_url()
     if not base:
@@ -40,3 +43,10 @@ def db_url(request, tmp_path):
         with admin.begin() as conn:
             conn.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
         admin.dispose()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_url(request, tmp_path):
+    """URL of an empty database: a SQLite file, or a new PostgreSQL schema (dropped after)."""
+    with empty_database(request.param, tmp_path) as url:
+        yield url
