@@ -58,7 +58,7 @@ async def _too_large(send, max_bytes: int) -> None:
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The FastAPI application on `settings` (default Settings.from_env())."""
-    from api.routers import jobs, reports, runs, tokens
+    from api.routers import jobs, reports, runs, schemes, tokens
 
     st = settings or Settings.from_env()
 
@@ -70,7 +70,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
         app.state.store = Store(st.db_url)
         recover_lost(app.state.store, st.job_stale_s, st.job_max_attempts)
-        pool = WorkerPool(st.db_url, st.workers).start() if st.workers > 0 else None
+        env = {"RIG_DASK_SCHEDULER": st.dask_scheduler} if st.dask_scheduler else None
+        pool = WorkerPool(st.db_url, st.workers, env=env).start() if st.workers > 0 else None
         app.state.workers = pool
         try:
             yield
@@ -84,7 +85,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                               "Every endpoint needs `Authorization: Bearer TOKEN` "
                               "(`rig token create --role viewer|operator|admin`).")
     app.state.settings = st
-    for r in (runs.router, jobs.router, reports.router, tokens.router):
+    for r in (runs.router, jobs.router, reports.router, tokens.router, schemes.router):
         app.include_router(r)
     app.add_middleware(BodyLimit, max_bytes=st.max_body_bytes)
     return app

@@ -9,6 +9,8 @@ same worker, so a cancelled or re-queued job never gets a stale result."""
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import socket
 import traceback
@@ -19,7 +21,7 @@ import numpy as np
 from sqlalchemy import insert, select, update
 from sqlalchemy.exc import IntegrityError
 
-from db.models import Job, Result, ResultRun, utcnow
+from db.models import Job, Report, Result, ResultRun, utcnow
 from db.store import Store, process_token
 
 ACTIVE = ("queued", "running")
@@ -163,9 +165,24 @@ def heartbeat(store: Store, job_id: int, worker: str, progress: float | None = N
         return s.execute(select(Job.status).where(Job.id == job_id)).scalar()
 
 
+def json_document(x: Any) -> Any:
+    """A JSON-ready copy of x: numpy arrays and scalars as lists and numbers, tuples as lists,
+    NaN and ±inf as None (JSON has neither)."""
+    if isinstance(x, dict):
+        return {str(k): json_document(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [json_document(v) for v in x]
+    if isinstance(x, np.generic):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
 def finish(store: Store, job_id: int, worker: str, results: list) -> bool:
-    """Store a job's results (fits, linked to their runs) and mark it 'succeeded', in one
-    transaction; False (nothing stored) when the job is no longer ours and running."""
+    """Store a job's results (fits, linked to their runs, with their JSON documents as `reports`
+    rows) and mark it 'succeeded', in one transaction; False (nothing stored) when the job is no
+    longer ours and running."""
     now = utcnow()
     with store.Session.begin() as s:
         res = s.execute(update(Job).where(*_mine(job_id, worker))
@@ -183,6 +200,11 @@ def finish(store: Store, job_id: int, worker: str, results: list) -> bool:
                 created_at=now).returning(Result.id)).scalar_one()
             for run_id, role in r.runs.items():
                 s.execute(insert(ResultRun).values(result_id=rid, run_id=run_id, role=role))
+            for kind, doc in getattr(r, "documents", {}).items():
+                s.execute(insert(Report).values(
+                    kind=kind, title=f"{kind} of job {job_id}", result_id=rid,
+                    media_type="application/json", created_at=now,
+                    content=json.dumps(json_document(doc), allow_nan=False).encode("utf-8")))
     return True
 
 
@@ -237,7 +259,8 @@ def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2) -> 
 
 
 def results_of(store: Store, job_id: int) -> list[dict[str, Any]]:
-    """A job's stored results: id, model, method, fit (Fit.as_dict), draws shape, runs."""
+    """A job's stored results: id, model, method, fit (Fit.as_dict), draws shape, runs, and
+    `documents`: {kind: JSON document} of its JSON reports (e.g. 'diagnosis')."""
     with store.ReadSession() as s:
         rows = s.execute(select(Result).where(Result.job_id == job_id)
                          .order_by(Result.id)).scalars().all()
@@ -248,8 +271,27 @@ def results_of(store: Store, job_id: int) -> list[dict[str, Any]]:
             out.append({"id": r.id, "model": r.model, "method": r.method, "fit": r.fit,
                         "draws_shape": r.draws_shape,
                         "runs": [{"run_id": a, "role": b} for a, b in links],
+                        "documents": _documents(s, r.id),
                         "created_at": aware_utc(r.created_at)})
         return out
+
+
+def _documents(s, result_id: int) -> dict[str, Any]:
+    rows = s.execute(select(Report.kind, Report.content)
+                     .where(Report.result_id == result_id,
+                            Report.media_type == "application/json")
+                     .order_by(Report.id)).all()
+    return {kind: json.loads(content) for kind, content in rows}
+
+
+def document_of(store: Store, job_id: int, kind: str) -> dict[str, Any] | None:
+    """The JSON document of `kind` (e.g. 'diagnosis') stored with one of a job's results."""
+    q = (select(Report.content).join(Result, Report.result_id == Result.id)
+         .where(Result.job_id == job_id, Report.kind == kind,
+                Report.media_type == "application/json").order_by(Report.id).limit(1))
+    with store.ReadSession() as s:
+        content = s.execute(q).scalar()
+    return None if content is None else json.loads(content)
 
 
 def fits_of(store: Store, job_id: int) -> list:

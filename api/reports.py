@@ -63,29 +63,51 @@ def run_report(store: Store, run_id: int, with_plots: bool = True) -> dict[str, 
 
 def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, Any] | None:
     """A job's report: the job, its results (Fit.as_dict per result, runs used), the paper-layout
-    tables (estimator.tables) and, with_plots, posterior histograms, corner plot, R-hat trace,
-    autocorrelation and Sobol bars as SVG bytes under 'plots'."""
+    tables (estimator.tables, one per model), for a diagnosis job its report under 'diagnosis'
+    (the stored document) and, with_plots, predicted vs measured, posterior histograms, corner
+    plot, R-hat trace, autocorrelation, Sobol bars and the diagnosis figures
+    (api.diagnosis_plots) as SVG bytes under 'plots'."""
     from api import queue
 
     job = queue.get_job(store, job_id)
     if job is None:
         return None
     results = queue.results_of(store, job_id)
+    diagnosis = None
+    for res in results:
+        docs = res.pop("documents", {})
+        diagnosis = diagnosis or docs.get("diagnosis")
+        res["documents"] = sorted(docs)
     rep: dict[str, Any] = {"job": job, "results": results, "tables": None}
+    if diagnosis is not None:
+        rep["diagnosis"] = diagnosis
     fits = queue.fits_of(store, job_id) if results else []
     if fits:
         from estimator.tables import report as tables_report, sobol_table
-        title = f"{fits[0].model}: estimates, 95 % intervals and RMSE"
-        text = tables_report(fits, title)
+        by_model: dict[str, list] = {}
+        for f in fits:
+            by_model.setdefault(f.model, []).append(f)
+        text = "\n\n".join(
+            tables_report(group, f"{m}"
+                          + (f" ({group[0].extra['diagnosis']} model of the diagnosis)"
+                             if group[0].extra.get("diagnosis") else "")
+                          + ": estimates, 95 % intervals and RMSE")
+            for m, group in by_model.items())
         for f in fits:
             if f.extra.get("sobol"):
                 text += "\n\n" + sobol_table(f.extra["sobol"], f"Sobol indices ({f.method})")
         rep["tables"] = text
     if with_plots:
+        from api.fit_series import predicted_vs_measured
         from estimator import plots
         figs: dict[str, bytes] = {}
         for k, f in enumerate(fits):
             sfx = f"_{k}" if len(fits) > 1 else ""
+            if f.extra.get("series"):
+                svg = _try_plot(lambda f=f: predicted_vs_measured(
+                    f.extra["series"], f"{f.model} by {f.method}: measured and predicted"))
+                if svg is not None:
+                    figs["predicted_vs_measured" + sfx] = svg
             for name, fn in (("posterior", lambda f=f: plots.posterior_histograms(f)),
                              ("corner", lambda f=f: plots.corner_plot(f)),
                              ("rhat_trace", lambda f=f: plots.rhat_trace_plot([f])),
@@ -96,6 +118,14 @@ def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, 
             if f.extra.get("sobol"):
                 figs["sobol" + sfx] = plots.sobol_bars_from_table(
                     f.extra["sobol"], title=f"{f.model} — {f.method}: Sobol indices")
+        if diagnosis is not None:
+            from api.diagnosis_plots import diagnosis_figures
+            p = job["params"]
+            ids = list(p.get("run_ids", [])) + list(p.get("test_run_ids", []))
+            figs.update(diagnosis_figures(diagnosis, ids))
+            if diagnosis.get("transmission"):
+                figs.update(diagnosis_figures(diagnosis["transmission"], ids,
+                                              prefix="diagnosis_transmission_"))
         rep["plots"] = figs
     return json_clean(rep)
 
@@ -174,9 +204,157 @@ def job_report_html(rep: dict[str, Any]) -> str:
         runs = ", ".join(f"run {x['run_id']} ({x['role']})" for x in res["runs"])
         parts.append(f"<h2>Result {res['id']}: {_e(res['model'])} by {_e(res['method'])}</h2>"
                      f"<p>Runs: {_e(runs)}</p>")
+    plots = dict(rep.get("plots") or {})
+    if rep.get("diagnosis"):
+        gap = {n: plots.pop(n) for n in list(plots) if n.startswith("diagnosis_")}
+        parts.append(diagnosis_html(rep["diagnosis"], gap))
     if rep.get("tables"):
         parts += ["<h2>Identification tables</h2>", f"<pre>{_e(rep['tables'])}</pre>"]
-    if rep.get("plots"):
+    if plots:
         parts.append("<h2>Plots</h2>")
-        parts += [_img(n, s) for n, s in rep["plots"].items()]
+        parts += [_img(n, s) for n, s in plots.items()]
     return _page(f"Job {j['id']} — {j['kind']} report", "".join(parts))
+
+
+def _pct(x: float | None) -> str:
+    return "—" if x is None else f"{100 * x:.1f} %"
+
+
+def _num(x: float | None, digits: int = 4) -> str:
+    return "—" if x is None else f"{x:.{digits}g}"
+
+
+def diagnosis_html(d: dict[str, Any], plots: dict[str, bytes]) -> str:
+    """The "Sim-to-real gap" section of a diagnosis job's report: the verdict, then per model law
+    diagnosed (the output-side torque balance, and the twist–torque law when the diagnosis
+    covered it under `transmission`) its held-out RMSE before/after with intervals, flagged
+    regions, residual maps, candidate table, parameters moved and before/after plots of the
+    flagged regions (`plots`: api.diagnosis_plots.diagnosis_figures, by name)."""
+    v = d["verdict"]
+    status = v["status"]
+    effects = " + ".join(v.get("effects") or [])
+    cls = {"explained": "pass", "unexplained": "fail"}.get(status, "")
+    parts = ["<section id=\"sim-to-real-gap\"><h2>Sim-to-real gap</h2>",
+             f"<h3 class=\"{cls}\">Verdict: {_e(status)}"
+             + (f" — {_e(effects)}" if effects else "") + "</h3>"]
+    laws = v.get("laws") or {}
+    if laws:
+        rows = [{"model law": law, "status": x.get("status"),
+                 "effects": " + ".join(x.get("effects") or []) or "—",
+                 "held-out RMSE after": _num(x.get("rmse_test_after")),
+                 "final model": x.get("model")} for law, x in laws.items()]
+        parts.append(_table(rows, list(rows[0]), lambda r: {"explained": "pass",
+                                                           "unexplained": "fail"}
+                            .get(r["status"], "")))
+    parts.append(_law_html(d, plots, "diagnosis_", laws.get(d["baseline"]["model"]), bool(laws)))
+    tx = d.get("transmission")
+    if tx:
+        parts.append(_law_html(tx, plots, "diagnosis_transmission_", None, True))
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def _law_html(d: dict[str, Any], plots: dict[str, bytes], prefix: str,
+              law_verdict: dict[str, Any] | None, heading: bool) -> str:
+    """One model law's part of the sim-to-real gap section (see diagnosis_html)."""
+    v, b = d["verdict"], d["baseline"]
+    law = b.get("model")
+    lv = law_verdict or v
+    sh = d.get("shrinkage", {}).get("overall", {})
+    ci = sh.get("ci95") or [None, None]
+    before = sh.get("rmse_before", b.get("rmse_test"))
+    rmse_ci = ([before * (1 - ci[1]), before * (1 - ci[0])]
+               if before is not None and None not in ci else [None, None])
+    target = b.get("target") or d.get("series") or {}
+    unit = target.get("unit", "")
+    metrics = {
+        "status": lv.get("status"),
+        "effects": " + ".join(lv.get("effects") or []) or "—",
+        "nominal model": law,
+        f"held-out RMSE before [{unit}]": _num(before),
+        f"held-out RMSE after [{unit}]": _num(lv.get("rmse_test_after")),
+        f"RMSE after, 95 % interval [{unit}]": f"{_num(rmse_ci[0])} … {_num(rmse_ci[1])}",
+        "shrinkage (95 % interval)": f"{_pct(sh.get('shrinkage'))} "
+                                     f"({_pct(ci[0])} … {_pct(ci[1])})",
+        "shrinkage predicted from training": _pct(sh.get("predicted_from_training")),
+        "structured share removed": _pct(v.get("structured_share_removed")),
+    }
+    cls = {"explained": "pass", "unexplained": "fail"}.get(lv.get("status"), "")
+    nothing = "nothing structured"
+    reasons_before = ", ".join(d.get("tests", {}).get("reasons") or []) or nothing
+    reasons_after = ", ".join(v.get("residual_after", {}).get("reasons") or []) or nothing
+    h = "h4" if heading else "h3"
+    label = target.get("label", "")
+    parts = [f"<h3>Nominal model {_e(law)}: {_e(label)} [{_e(unit)}]</h3>" if heading else "",
+             _table([metrics], list(metrics), lambda r: cls),
+             f"<p>Residual tests ({_e(law)} on all runs): {_e(reasons_before)}. "
+             f"After the chosen effects: {_e(reasons_after)}.</p>"]
+    amb = v.get("ambiguity_sets") or {}
+    if amb or d.get("ambiguities"):
+        rows = [{"effect": k, "ambiguous with effects": ", ".join(a.get("effects") or []),
+                 "soaks up nominal parameters": ", ".join(a.get("nominal_parameters") or [])}
+                for k, a in amb.items()]
+        rows += [{"effect": " / ".join(a), "ambiguous with effects": "(candidate pair)",
+                  "soaks up nominal parameters": ""} for a in d.get("ambiguities") or []]
+        parts += [f"<{h}>Ambiguity sets</{h}>",
+                  _table(rows, ["effect", "ambiguous with effects",
+                                "soaks up nominal parameters"])]
+    reg_after = {r["where"]: r for r in d.get("shrinkage", {}).get("regions") or []}
+    rows = []
+    for r in d.get("regions") or []:
+        a = reg_after.get(r["where"], {})
+        rows.append({"where": r["where"], "family": r["family"], "share": _pct(r["share"]),
+                     "samples": _pct(r.get("samples")), f"rmse [{unit}]": _num(r["rmse"]),
+                     "mean ± SE": f"{_num(r['mean'])} ± {_num(r['mean_se'], 2)}",
+                     "z (mean)": _num(r.get("z_mean"), 3),
+                     "z (energy)": _num(r.get("z_energy"), 3),
+                     "held-out rmse before → after": (f"{_num(a['rmse_before'])} → "
+                                                      f"{_num(a['rmse_after'])}" if a else "—"),
+                     "shrinkage (95 % interval)": (f"{_pct(a['shrinkage'])} ({_pct(a['ci95'][0])}"
+                                                   f" … {_pct(a['ci95'][1])})" if a else "—")})
+    parts.append(f"<{h}>Where it lies: flagged regions (largest share of the residual energy "
+                 f"first)</{h}>")
+    parts.append(_table(rows, list(rows[0])) if rows else "<p>No region is flagged.</p>")
+    maps = [prefix + n for n in ("residual_map", "residual_vs_angle", "residual_vs_time")]
+    if any(n in plots for n in maps):
+        parts.append(f"<{h}>Residual maps</{h}>")
+        parts += [_img(n, plots[n]) for n in maps if n in plots]
+    cands = []
+    for c in d.get("candidates") or []:
+        if c.get("model", law) != law:
+            continue
+        shape = ", ".join(f"{k}={_num(x)}" for k, x in (c.get("shape") or {}).items())
+        amb = c.get("ambiguous_with") or []
+        ali = c.get("aliases") or []
+        cands.append({"effect": c["effect"], "added to": c.get("model", law),
+                      "shape": shape or "—",
+                      f"rmse_test [{unit}]": _num(c["rmse_test"]),
+                      "shrinkage": _pct(c["shrinkage"]),
+                      "predicted": _pct(c.get("shrinkage_predicted")),
+                      "gain / SE (z)": _num(c.get("z"), 3),
+                      "significant": "yes" if c["significant"] else "no",
+                      "ambiguity": "; ".join(filter(None, [
+                          ("with effects " + ", ".join(amb)) if amb else "",
+                          ("soaks up " + ", ".join(ali)) if ali else ""])) or "—"})
+    parts.append(f"<{h}>Which effect: candidates (best held-out RMSE first)</{h}>")
+    parts.append(_table(cands, list(cands[0]), lambda r: "pass" if r["significant"] == "yes"
+                        else "") if cands else "<p>No candidate could be tried.</p>")
+    if prefix + "candidates" in plots:
+        parts.append(_img(prefix + "candidates", plots[prefix + "candidates"]))
+    if d.get("skipped"):
+        parts.append("<p>Not tried: " + "; ".join(f"{_e(k)} ({_e(w)})"
+                                                 for k, w in d["skipped"].items()) + "</p>")
+    moved = d.get("shrinkage", {}).get("parameters_moved") or {}
+    if moved:
+        rows = [{"parameter": n, "unit": m.get("unit"), "before": _num(m["before"], 6),
+                 "SE before": _num(m["se_before"], 2), "after": _num(m["after"], 6),
+                 "SE after": _num(m["se_after"], 2),
+                 "shift [SE before]": _num(m["shift_in_se"], 3)}
+                for n, m in moved.items()]
+        parts += [f"<{h}>How the nominal parameters moved with the chosen effects</{h}>",
+                  _table(rows, list(rows[0]))]
+    regs = [n for n in plots if n.startswith(prefix + "region_")]
+    if regs:
+        parts.append(f"<{h}>Before and after in the flagged regions</{h}>")
+        parts += [_img(n, plots[n]) for n in regs]
+    return "".join(parts)

@@ -8,6 +8,12 @@ RIG_MAX_BODY_BYTES  largest accepted request body [bytes] (default 1 MiB)
 RIG_JOB_HEARTBEAT_S how often a worker stamps its running job [s] (default 2)
 RIG_JOB_STALE_S     a running job without a heartbeat for this long is taken as lost [s] (default 30)
 RIG_JOB_MAX_ATTEMPTS claims of one job before a lost job is failed instead of re-queued (default 2)
+RIG_DASK_SCHEDULER  address of a Dask distributed scheduler, e.g. tcp://10.0.0.5:8786 (default
+                    none: jobs run in the worker processes). When set, each worker process still
+                    claims jobs from SQL and stamps their heartbeats, but runs the job's code as
+                    a Dask task there, its chains and Sobol evaluations spread over the cluster's
+                    workers (api.dask_backend); RIG_WORKERS is then how many jobs run at once.
+                    Every Dask worker needs this package (pip install '.[dask]') and the database.
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ class Settings:
     job_heartbeat_s: float = 2.0
     job_stale_s: float = 30.0
     job_max_attempts: int = 2
+    dask_scheduler: str | None = None
 
     @classmethod
     def from_env(cls, **overrides) -> "Settings":
@@ -45,6 +52,7 @@ class Settings:
             job_heartbeat_s=float(_env("RIG_JOB_HEARTBEAT_S", "2")),
             job_stale_s=float(_env("RIG_JOB_STALE_S", "30")),
             job_max_attempts=int(_env("RIG_JOB_MAX_ATTEMPTS", "2")),
+            dask_scheduler=os.environ.get("RIG_DASK_SCHEDULER") or None,
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values)

@@ -5,7 +5,12 @@ service starts a pool of them (WorkerPool) and stops them with it.
 Each loop turn (`run_once`) first re-queues jobs whose worker is gone (api.queue.recover_lost),
 then claims one job and runs it: a heartbeat thread stamps the job every
 RIG_JOB_HEARTBEAT_S; progress reports check for cancellation; the results are written with the
-job's end in one transaction; an exception ends the job 'failed' with its error."""
+job's end in one transaction; an exception ends the job 'failed' with its error.
+
+The job kind runs here, its chains and Sobol blocks one after another (api.job_runtime.ProgressMap),
+or, with RIG_DASK_SCHEDULER set, as a task on that Dask cluster with its chains and blocks spread
+over the cluster's workers (api.dask_backend); the claim, heartbeats and the job's end stay here.
+Without a reachable scheduler the worker claims nothing (the jobs wait, queued)."""
 
 from __future__ import annotations
 
@@ -26,7 +31,8 @@ class Worker:
     """One worker process's loop over the queue of the database at `db_url`."""
 
     def __init__(self, db_url: str | None = None, heartbeat_s: float = 2.0,
-                 stale_s: float = 30.0, max_attempts: int = 2):
+                 stale_s: float = 30.0, max_attempts: int = 2,
+                 dask_scheduler: str | None = None):
         from api.queue import worker_name
         from db.store import Store
 
@@ -35,13 +41,31 @@ class Worker:
         self.heartbeat_s = heartbeat_s
         self.stale_s = stale_s
         self.max_attempts = max_attempts
+        self.dask_scheduler = dask_scheduler
+        self.dask = None            # api.dask_backend.DaskJobs, connected on first use
         self.stopping = threading.Event()
 
+    def _dask_ready(self) -> bool:
+        """Connect to the Dask scheduler when one is configured; False while it is unreachable."""
+        if self.dask_scheduler is None or self.dask is not None:
+            return True
+        from api.dask_backend import DaskJobs
+        try:
+            self.dask = DaskJobs(self.dask_scheduler, self.store.url)
+        except OSError as e:            # includes timeouts: the jobs stay queued
+            log.warning("Dask scheduler %s unreachable (%s); not claiming jobs",
+                        self.dask_scheduler, e)
+            return False
+        return True
+
     def run_once(self) -> int | None:
-        """Recover lost jobs, then claim and run one job; returns its id (None: queue empty)."""
+        """Recover lost jobs, then claim and run one job; returns its id (None: queue empty, or
+        the Dask scheduler is configured but unreachable)."""
         from api import queue
 
         queue.recover_lost(self.store, self.stale_s, self.max_attempts)
+        if not self._dask_ready():
+            return None
         job = queue.claim(self.store, self.name)
         if job is None:
             return None
@@ -51,6 +75,7 @@ class Worker:
     def run_job(self, job: dict[str, Any]) -> None:
         from api import queue
         from api.job_kinds import KINDS, JobCancelled
+        from api.job_runtime import JobProgress, ProgressMap, call_kind
 
         jid = job["id"]
         done = threading.Event()
@@ -62,10 +87,7 @@ class Worker:
                 except Exception:  # a missed beat is retried; the job goes on
                     log.exception("heartbeat of job %s failed", jid)
 
-        def progress(x: float) -> None:
-            if queue.heartbeat(self.store, jid, self.name, progress=x) != "running":
-                raise JobCancelled(f"job {jid} is no longer running here")
-
+        progress = JobProgress(self.store, jid, self.name)
         t = threading.Thread(target=beat, name=f"job-{jid}-heartbeat", daemon=True)
         t.start()
         try:
@@ -74,7 +96,10 @@ class Worker:
                 raise ValueError(f"unknown job kind {job['kind']!r}")
             params = kind.params.model_validate(job["params"])
             progress(0.05)
-            results = kind.run(self.store, params, progress)
+            if self.dask is not None:
+                results = self.dask.run(job, progress)
+            else:
+                results = call_kind(kind, self.store, params, progress, ProgressMap(progress))
             progress(0.95)
             if not queue.finish(self.store, jid, self.name, results):
                 log.info("job %s was cancelled or taken over; its results are discarded", jid)
@@ -86,6 +111,13 @@ class Worker:
         finally:
             done.set()
             t.join()
+
+    def close(self) -> None:
+        """Close the Dask client (if any) and the store."""
+        if self.dask is not None:
+            self.dask.close()
+            self.dask = None
+        self.store.close()
 
     def serve(self, poll_s: float = 0.5, max_jobs: int | None = None) -> None:
         """Loop until stopped (SIGTERM/SIGINT) or `max_jobs` jobs ran."""
@@ -146,14 +178,15 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s worker %(process)d %(message)s")
     logging.getLogger("alembic").setLevel(logging.WARNING)
     st = Settings.from_env(db_url=args.db)
-    w = Worker(st.db_url, st.job_heartbeat_s, st.job_stale_s, st.job_max_attempts)
+    w = Worker(st.db_url, st.job_heartbeat_s, st.job_stale_s, st.job_max_attempts,
+               st.dask_scheduler)
 
     def stop(*_):
         w.stopping.set()
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     w.serve(args.poll, args.max_jobs)
-    w.store.close()
+    w.close()
     return 0
 
 

@@ -60,6 +60,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="reset a PLC heartbeat-watchdog fault latched when the previous "
                              "session ended (never an e-stop or a limit trip)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
+    parser.add_argument("--json-progress", action="store_true",
+                        help="progress as JSON lines on stdout (for a supervising service)")
+    parser.add_argument("--control-stdin", action="store_true",
+                        help="obey commands read from stdin: `stop` (make safe, abort), "
+                             "`estop REASON`; end of input stops the run (its supervisor is gone)")
 
 
 def scheme_params(args: argparse.Namespace, number: int) -> dict:
@@ -130,6 +135,76 @@ class LiveLine:
             self.stream.flush()
 
 
+class JsonProgress:
+    """Progress as one JSON object per line: run id, plan time and duration [s], fraction,
+    phase, sample counts and the key channels of LiveLine (SI units; NaN as null)."""
+
+    def __init__(self, stream, run_id) -> None:
+        self.stream = stream
+        self.run_id = run_id
+        """Callable returning the run id (None before the run is stored)."""
+
+    def __call__(self, p) -> None:
+        import json
+        chans = {k: (float(p.latest[k]) if p.latest[k] == p.latest[k] else None)
+                 for k, *_ in LiveLine.KEYS if k in p.latest}
+        self.stream.write(json.dumps({
+            "event": "progress", "run_id": self.run_id(), "t": p.t, "duration": p.duration,
+            "fraction": p.fraction, "phase": p.phase or None, "n_samples": p.n_samples,
+            "missed": p.missed, "channels": chans}) + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        pass
+
+
+async def run_controlled(engine, plan):
+    """Run `plan` while obeying stdin: `stop` cancels the run (the engine makes the rig safe
+    and ends it `abort`), `estop REASON` e-stops the rig (the run ends `abort` with the
+    e-stop as its reason), end of input or SIGTERM = stop. Returns the outcome, None if the
+    run was cancelled."""
+    import asyncio
+    import signal
+    import sys
+    import threading
+
+    loop = asyncio.get_running_loop()
+    task = asyncio.ensure_future(engine.run(plan))
+    pending: set = set()
+
+    def stop() -> None:
+        # Python 3.11's asyncio.wait_for (inside every pymodbus request) can swallow a
+        # cancellation that races a reply: cancel again until the engine is making the rig
+        # safe (rig.safe is set before make-safe's first await; never cancel make-safe)
+        if not task.done() and not engine.rig.safe:
+            task.cancel()
+            loop.call_later(0.5, stop)
+
+    def command(line: str | None) -> None:
+        if task.done():
+            return
+        words = (line or "stop").strip()
+        if words == "stop":
+            stop()
+        elif words.split(" ")[0] == "estop":
+            t = loop.create_task(engine.rig.estop(words[5:].strip() or "operator"))
+            pending.add(t)
+            t.add_done_callback(pending.discard)
+
+    def read() -> None:
+        for line in sys.stdin:
+            loop.call_soon_threadsafe(command, line)
+        loop.call_soon_threadsafe(command, None)
+    threading.Thread(target=read, name="stdin-commands", daemon=True).start()
+    loop.add_signal_handler(signal.SIGTERM, command, "stop")
+    try:
+        return await task
+    except asyncio.CancelledError:
+        if task.cancelled() and not asyncio.current_task().cancelling():
+            return None
+        raise
+
+
 def run(args: argparse.Namespace) -> int:
     import asyncio
     import sys
@@ -157,6 +232,8 @@ def run(args: argparse.Namespace) -> int:
         return 2
     source = args.source or ("emulator" if _is_loopback(settings.plc_host) else "rig")
     live = None if args.quiet else LiveLine(sys.stdout)
+    if args.json_progress:
+        live = JsonProgress(sys.stdout, lambda: engine.writer.run_id if engine.writer else None)
     store = Store(args.db)
     engine = Engine(Rig(settings), store, source=source, rig_name=args.rig_name,
                     operator=args.operator, effects=effects, notes=args.notes, progress=live,
@@ -165,7 +242,12 @@ def run(args: argparse.Namespace) -> int:
           f"{plan.duration:.1f} s of rig time, {plan.n_samples()} samples at "
           f"{plan.sample_rate_hz:g} Hz, database {store.url}", flush=True)
     try:
-        outcome = asyncio.run(engine.run(plan))
+        if args.control_stdin:
+            outcome = asyncio.run(run_controlled(engine, plan))
+            if outcome is None:
+                raise KeyboardInterrupt
+        else:
+            outcome = asyncio.run(engine.run(plan))
     except KeyboardInterrupt:
         if live:
             live.close()

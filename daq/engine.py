@@ -33,6 +33,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
+
 from daq.plans import Plan
 from daq.plc import PlcLinkError
 from daq.rig import Rig, RigSafeError
@@ -248,26 +250,32 @@ class Engine:
 
     # --- start --------------------------------------------------------------------------------
 
-    async def _measure_time_scale(self, window: float = 0.3) -> float:
-        """Rig seconds per wall second, from the PLC's rig_time over `window` s of wall time."""
+    async def _measure_time_scale(self, window: float = 0.3, repeats: int = 3) -> float:
+        """Rig seconds per wall second: the median over `repeats` windows of `window` s of the
+        least-squares slope of the PLC's rig_time against each status snapshot's receive time
+        (an emulator that lags on a loaded machine catches up in bursts; one late reply or one
+        burst does not set the scale)."""
         plc = self.rig.plc
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + 5.0 + window * repeats
         while len(plc) < 1:
             if time.monotonic() > deadline:
                 raise RuntimeError("no PLC status snapshot within 5 s")
             await asyncio.sleep(0.01)
-        i0 = len(plc) - 1
-        await asyncio.sleep(window)
-        while len(plc) < i0 + 3:
-            if time.monotonic() > deadline:
+        slopes = []
+        for _ in range(repeats):
+            i0 = len(plc) - 1
+            await asyncio.sleep(window)
+            while len(plc) < i0 + 3:
+                if time.monotonic() > deadline:
+                    raise RuntimeError("the PLC's rig_time does not advance")
+                await asyncio.sleep(0.01)
+            i1 = len(plc)
+            rig_t = np.asarray(plc["rig_time"][i0:i1], dtype=float)
+            rx = np.asarray(plc["t_rx"][i0:i1], dtype=float)
+            if rig_t[-1] <= rig_t[0] or rx[-1] <= rx[0]:
                 raise RuntimeError("the PLC's rig_time does not advance")
-            await asyncio.sleep(0.01)
-        i1 = len(plc) - 1
-        d_rig = plc["rig_time"][i1] - plc["rig_time"][i0]
-        d_wall = plc["t_rx"][i1] - plc["t_rx"][i0]
-        if d_rig <= 0 or d_wall <= 0:
-            raise RuntimeError("the PLC's rig_time does not advance")
-        return d_rig / d_wall
+            slopes.append(float(np.polyfit(rx - rx[0], rig_t - rig_t[0], 1)[0]))
+        return float(np.median(slopes))
 
     async def _reset_watchdog_fault(self, attempts: int = 3) -> None:
         """Reset a latched PLC heartbeat-watchdog fault (only that) and re-enable the drives."""

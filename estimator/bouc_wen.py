@@ -545,7 +545,8 @@ def fit_bouc_wen(signals: Mapping[str, Any], method: str, n: int = 1, seed: int 
     options: model (Fit.model, default 'eq9'), alpha (fixed α, 1.0), free_alpha (False —
     α·k_h is not identifiable; freeing α leaves it to its prior), prior (BoucWenPrior, used as
     given), tau2_prior ((a0, b0) of the scaled noise variance), v_eps [rad/s], chains (4),
-    n_draws, n_warmup, test_signals (held-out signals for rmse_test), and per sampler: hmc —
+    n_draws, n_warmup, test_signals (held-out signals for rmse_test), level (of the credible or
+    confidence intervals, 0.95), and per sampler: hmc —
     target_accept, dense_metric, threads (chains run in that many threads; default one per
     chain up to the CPU count — results do not depend on it); sghmc — batch_size, step_size,
     friction.
@@ -568,6 +569,9 @@ def fit_bouc_wen(signals: Mapping[str, Any], method: str, n: int = 1, seed: int 
     n_draws = int(options.pop("n_draws", 1000 if method == "hmc" else 4000))
     n_warmup = int(options.pop("n_warmup", 500 if method == "hmc" else 2000))
     threads = int(options.pop("threads", min(chains, os.cpu_count() or 1)))
+    level = float(options.pop("level", 0.95))
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), not {level}")
     sampler_opts = {key: options.pop(key) for key in
                     ("target_accept", "dense_metric", "batch_size", "step_size", "friction")
                     if key in options}
@@ -603,7 +607,7 @@ def fit_bouc_wen(signals: Mapping[str, Any], method: str, n: int = 1, seed: int 
         from scipy import stats
         est = ls["estimate"]
         se = np.sqrt(np.clip(np.diag(ls["cov"]), 0, None))
-        tq = stats.t.ppf(0.975, ls["dof"])
+        tq = stats.t.ppf(0.5 + level / 2, ls["dof"])
         return Fit(model=model, method="ls", param_names=names, units=units, mean=est, sd=se,
                    ci_low=est - tq * se, ci_high=est + tq * se, sigma=ls["sigma"],
                    rmse_train=rmse_of(est[:k], est[k:], signals),
@@ -671,7 +675,7 @@ def fit_bouc_wen(signals: Mapping[str, Any], method: str, n: int = 1, seed: int 
                          rmse_train=rmse_of(mean[:k], mean[k:], signals),
                          rmse_test=rmse_of(mean[:k], mean[k:], test_signals),
                          seconds=out.seconds + t_linear, accept_rate=out.accept_rate,
-                         extra=extra,
+                         extra=extra, level=level,
                          timings={"least_squares_start": t_ls, "mode": t_mode,
                                   "sample": t_sample,
                                   "linear_draws": t_linear,

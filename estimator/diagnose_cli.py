@@ -19,6 +19,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default="eq4",
                    help="nominal model: eq4 (default), eq5, eq11 (estimator.models specs, "
                         "e.g. eq4+stribeck) or emps")
+    p.add_argument("--transmission", default="auto",
+                   help="twist–torque law diagnosed beside the torque balance when every run has "
+                        "twist and torque channels: auto (Eq. 11, Bouc–Wen shape fitted on the "
+                        "training runs; default), eq5 (elastic), or none")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.add_argument("--rename", default=None, metavar="OLD=NEW,...",
                    help="rename channels before the diagnosis (e.g. qm=q,force=torque)")
@@ -71,12 +75,18 @@ def format_text(rep: dict) -> str:
                      f"mean {r['mean']:+.4g} ± {r['mean_se']:.2g}")
     if not rep["regions"]:
         lines.append("  (none flagged)")
-    lines.append("candidates (best held-out RMSE first):")
+    tx = rep.get("transmission")
+    if tx:
+        tb = tx["baseline"]
+        lines.append(f"twist–torque law {tb['model']}: RMSE train {tb['rmse_train']:.4g}, "
+                     f"held-out {tb['rmse_test']:.4g}")
+    lines.append("candidates (largest held-out shrinkage first; the law each was added to):")
     for c in rep["candidates"]:
         shape = ",".join(f"{k}={v:.4g}" for k, v in c["shape"].items())
         amb = (" aliases " + ",".join(c["aliases"])) if c["aliases"] else ""
         amb += (" ambiguous with " + ",".join(c["ambiguous_with"])) if c["ambiguous_with"] else ""
-        lines.append(f"  {c['effect']:<24}{('[' + shape + ']') if shape else '':<18} rmse_test "
+        lines.append(f"  {c['effect']:<24}{('[' + shape + ']') if shape else '':<18} "
+                     f"on {c.get('model', b['model']):<6} rmse_test "
                      f"{c['rmse_test']:.4g}  shrinkage {c['shrinkage']:+.3f} (predicted "
                      f"{c['shrinkage_predicted']:+.3f})  z {c['z']:.1f}  "
                      f"{'SIGNIFICANT' if c['significant'] else ''}{amb}")
@@ -114,7 +124,8 @@ def run(args: argparse.Namespace) -> int:
         if args.effects:
             opt = replace(opt, candidates=tuple(e.strip() for e in args.effects.split(",")))
         prep = PrepOptions(cutoff_hz=args.cutoff, decimate=args.decimate)
-        rep = diagnose(train, test, args.model, prep=prep, options=opt)
+        tx = None if args.transmission.lower() == "none" else args.transmission
+        rep = diagnose(train, test, args.model, prep=prep, options=opt, transmission=tx)
     except (OSError, KeyError, ValueError) as exc:
         print(f"rig diagnose: {exc}", file=sys.stderr)
         return 2

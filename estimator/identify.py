@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from estimator.exact import (nig_draws, nig_posterior, semiconjugate_draws,
 from estimator.identifiability import identifiability_report
 from estimator.least_squares import ols
 from estimator.linear_posterior import LinearPosterior
+from estimator.mh import SamplerOutput
 from estimator.models import LinearModel, model_from_spec
 from estimator.preprocess import PrepOptions, Signals, concat_signals, prepare
 from estimator.priors import Prior, Scaling, ZeroColumnError, inv_gamma_moment_match
@@ -43,6 +44,10 @@ SAMPLER_OPTIONS = {"mh": {"proposal_cov"},
                              "max_noise_share"}}
 DEFAULT_DRAWS = {"exact": 2000, "mh": 5000, "sghmc": 4000}
 """Kept draws per chain by method (4 chains): ≥ 500 bulk ESS per parameter in our runs."""
+
+ChainMap = Callable[[Callable[[Any], Any], Iterable[Any]], Iterable[Any]]
+"""A `map`-like callable, chain_map(fn, items) -> fn(item) for each item, in order (builtin `map`
+runs them here one after another; the API passes one that runs them on a Dask cluster)."""
 
 
 @dataclass
@@ -163,16 +168,70 @@ def exact_draws(post, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.
     return semiconjugate_draws(post, n, rng)
 
 
+@dataclass
+class ChainTask:
+    """One chain of a Bayesian linear fit, self-contained (data and prior in sampler coordinates,
+    start, seed) so that `run_chain` can run it in another process or on another machine."""
+    method: str
+    """'exact', 'mh' or 'sghmc'"""
+    draws: int
+    warmup: int
+    seed: int
+    x0: np.ndarray | None = None
+    """(1, p + 1) start in sampler coordinates (mh, sghmc)."""
+    Xs: np.ndarray | None = None
+    ys: np.ndarray | None = None
+    prior: Prior | None = None
+    post: Any = None
+    """The exact posterior (method 'exact': its draws need no data)."""
+    options: dict = field(default_factory=dict)
+
+
+def chain_seeds(seed: int, chains: int) -> list[int]:
+    """Independent per-chain seeds derived from one seed (numpy SeedSequence.spawn)."""
+    return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(chains)]
+
+
+def run_chain(task: ChainTask) -> SamplerOutput:
+    """Run one chain: draws (1, draws, p + 1) of (θ, log τ²) in sampler coordinates."""
+    if task.method == "exact":
+        t0 = time.perf_counter()
+        th, t2 = exact_draws(task.post, task.draws, np.random.default_rng(task.seed))
+        z = np.column_stack([th, np.log(t2)])[None]
+        return SamplerOutput(draws=z, accept_rate=np.full(1, np.nan),
+                             seconds=time.perf_counter() - t0)
+    lp = LinearPosterior(task.Xs, task.ys, task.prior)
+    if task.method == "mh":
+        from estimator.mh import metropolis_hastings
+        return metropolis_hastings(lp.logp, task.x0, task.draws, task.warmup, task.seed,
+                                   **task.options)
+    if task.method == "sghmc":
+        from estimator.sghmc import sghmc
+        return sghmc(lp.grad_u, lp.n, task.x0, task.draws, task.warmup, task.seed, **task.options)
+    raise ValueError(f"no chains for method {task.method!r}")
+
+
+def _slim(extra: dict) -> dict:
+    return {k: v for k, v in extra.items() if not isinstance(v, np.ndarray) or v.size <= 64}
+
+
 def fit_linear(model_name: str, names: Sequence[str], units: Sequence[str], X: np.ndarray,
                y: np.ndarray, method: str, X_test: np.ndarray | None = None,
                y_test: np.ndarray | None = None, *, prior: str | Prior = "paper",
                tau_scale: str = "noise", tau_prior: tuple[float, float] | str = (2.0, 2.0),
                chains: int = 4, draws: int | None = None, warmup: int | None = None,
-               seed: int = 0, level: float = 0.95, **sampler_opts: Any) -> Fit:
+               seed: int = 0, level: float = 0.95, chain_map: ChainMap | None = None,
+               **sampler_opts: Any) -> Fit:
     """Fit y = X·θ + e by `method` (arrays in, a Fit out; the array-level core of identify).
     draws/warmup per chain default to DEFAULT_DRAWS[method] and 1000 (the samplers' autocorrelation
     times differ: ~1 for exact, ~20 for MH and SGHMC). sampler_opts go to the sampler (sghmc:
-    batch_size, step_size, friction, mass, correct_noise; mh: proposal_cov)."""
+    batch_size, step_size, friction, mass, correct_noise; mh: proposal_cov).
+
+    chain_map (a `map`-like callable, see ChainMap): each chain runs as an independent task
+    (ChainTask → run_chain, seeds from chain_seeds) through it, e.g. spread over a cluster; the
+    result does not depend on which map runs them. None: all chains in one sampler call (MH then
+    pools its warm-up adaptation over the chains). R-hat, ESS and intervals are computed here
+    over all chains either way."""
     draws = int(draws if draws is not None else DEFAULT_DRAWS.get(method, 2000))
     warmup = int(warmup if warmup is not None else 1000)
     if method not in LINEAR_METHODS:
@@ -229,7 +288,36 @@ def fit_linear(model_name: str, names: Sequence[str], units: Sequence[str], X: n
 
     t0 = time.perf_counter()
     accept = None
-    if method == "exact":
+    if chain_map is not None:
+        tasks = [ChainTask(method=method, draws=draws, warmup=warmup, seed=s)
+                 for s in chain_seeds(seed, chains)]
+        if method == "exact":
+            for t in tasks:
+                t.post = post
+        else:
+            lp = LinearPosterior(Xs, ys, pr)
+            x0 = lp.start(chains, rng)
+            opts = dict(sampler_opts)
+            if method == "mh":
+                opts["proposal_cov"] = opts.get("proposal_cov", lp.laplace_cov())
+            for c, t in enumerate(tasks):
+                t.x0, t.Xs, t.ys, t.prior, t.options = x0[c:c + 1], Xs, ys, pr, opts
+        outs = list(chain_map(run_chain, tasks))
+        if len(outs) != chains:
+            raise RuntimeError(f"chain_map returned {len(outs)} chains of {chains}")
+        z = np.concatenate([o.draws for o in outs], axis=0)
+        accept = np.concatenate([o.accept_rate for o in outs]) if method == "mh" else None
+        seconds = sum(o.seconds for o in outs) + (t_exact if method == "exact" else 0.0)
+        extra["sampler"] = {"independent_chains": chains,
+                            "chain_seconds": [o.seconds for o in outs],
+                            "chains": [_slim(o.extra) for o in outs]}
+        if method == "exact":
+            extra["sampler"]["kind"] = ("NIG closed form" if pr.conditional else
+                                        "semi-conjugate: exact grid in log tau2, "
+                                        "Gaussian theta | tau2")
+            if pr.conditional:
+                extra["log_marginal"] = post.log_marginal
+    elif method == "exact":
         th, t2 = exact_draws(post, chains * draws, rng)
         z = np.column_stack([th, np.log(t2)]).reshape(chains, draws, p + 1)
         seconds = time.perf_counter() - t0 + t_exact
@@ -251,8 +339,7 @@ def fit_linear(model_name: str, names: Sequence[str], units: Sequence[str], X: n
         z = out.draws
         accept = out.accept_rate if method == "mh" else None
         seconds = out.seconds
-        extra["sampler"] = {k: v for k, v in out.extra.items()
-                            if not isinstance(v, np.ndarray) or v.size <= 64}
+        extra["sampler"] = _slim(out.extra)
     theta_s = z[:, :, :p]
     flat = theta_s.reshape(-1, p)
     extra["vs_exact"] = {
@@ -282,7 +369,9 @@ def identify(train_runs: Sequence[RunData], model: str | LinearModel, method: st
     chains (4), draws (per chain, DEFAULT_DRAWS), warmup (1000), seed (0), level (0.95); bouc_wen
     (for 'eq11': None → fitted by estimator.bouc_wen; a dict of alpha, beta, gamma, n → x known);
     effects (list of names or (name, shape) pairs added to a model given by name); sampler
-    options (sghmc: batch_size, step_size, friction, mass, correct_noise; mh: proposal_cov).
+    options (sghmc: batch_size, step_size, friction, mass, correct_noise; mh: proposal_cov);
+    chain_map (see fit_linear: run the chains of a linear model through a map-like callable; the
+    Bouc–Wen path of eq9/eq11 ignores it and runs where it is called).
     """
     return identify_detailed(train_runs, model, method, test_runs, **opts)[0]
 
@@ -302,6 +391,7 @@ def identify_detailed(train_runs: Sequence[RunData], model: str | LinearModel, m
             if "+" in model or effects:
                 raise ValueError("effect terms go on the linear models (eq4, eq5, eq11 with "
                                  "bouc_wen given); the Bouc–Wen fit of eq9/eq11 takes none")
+            opts.pop("chain_map", None)
             return _bouc_wen(train_runs, base, method, test_runs, prep, opts), None
         kw = {}
         if base == "eq11":

@@ -16,7 +16,8 @@ y = X·θ + e. The physics comes from rig.terms and rig.effects only:
 - `LinearModel.with_effect(name, **shape)` adds an effect of rig.effects.VOCABULARY as extra
   columns: its term function evaluated at unit magnitude (the magnitude is the new parameter);
   shape parameters (e.g. Stribeck's v_s) are fixed at the given or default values. Effects whose
-  magnitude enters non-linearly are linearised around zero as documented in `_effect_term`.
+  magnitude enters non-linearly are linearised around zero as documented in `_effect_term`, or
+  take it as a shape (SHAPE_MAGNITUDE: backlash's b, with k_bl identified).
 """
 
 from __future__ import annotations
@@ -218,6 +219,12 @@ def model_from_spec(spec: str, **kw) -> LinearModel:
 
 # --- effects as columns -----------------------------------------------------------------------
 
+SHAPE_MAGNITUDE: dict[str, str] = {"backlash": "k_bl"}
+"""Effects whose vocabulary magnitude enters their column non-linearly, so that in the column
+form it is a shape parameter (fixed, or searched on a grid by the caller) and the coefficient
+identified is another one: backlash's dead-zone half-width b [rad] shapes the column
+backlash_twist(Δ, b) − Δ, whose coefficient k_bl [N·m/rad] is identified (≈ the stiffness)."""
+
 def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> Term:
     """The effect's term function at unit magnitude, as regressor column(s):
 
@@ -232,7 +239,8 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
                               gamma, n) (transmission models without an x column, e.g. eq5)
     backlash                  k_bl · (backlash_twist(Δ, b) − Δ): k·bt(Δ) = k·Δ + k·(bt(Δ) − Δ),
-                              so k_bl ≈ k when the dead zone is real (transmission models)
+                              so k_bl ≈ k when the dead zone is real (transmission models); the
+                              half-width b is a shape (SHAPE_MAGNITUDE), default the vocabulary's
     """
     if name not in fx.VOCABULARY:
         raise ValueError(f"unknown effect {name!r}; the vocabulary is {list(fx.EFFECT_NAMES)}")
@@ -242,6 +250,13 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         bad = set(shape) - bw_keys
         if bad:
             raise ValueError(f"hysteresis takes the Bouc–Wen shape {sorted(bw_keys)}, not {sorted(bad)}")
+    elif name in SHAPE_MAGNITUDE:
+        # the vocabulary's magnitude is a shape of the column (e.g. backlash's dead-zone
+        # half-width b); the coefficient identified is the column's own (k_bl)
+        shape_params = eff.resolve(shape)
+        if shape_params[eff.magnitude] <= 0:
+            raise ValueError(f"{name!r} needs {eff.magnitude!r} > 0 for its column, got "
+                             f"{shape_params[eff.magnitude]!r}")
     else:
         shape_params = {k: v for k, v in eff.resolve(shape).items() if k != eff.magnitude}
         if eff.magnitude in shape:

@@ -87,12 +87,17 @@ def design_chunks(design: SobolDesign, chunk_size: int) -> Iterator[tuple[slice,
         yield sl, design.X[sl]
 
 
-def evaluate_chunks(model: Model, design: SobolDesign, chunk_size: int = 4096) -> np.ndarray:
+def evaluate_chunks(model: Model, design: SobolDesign, chunk_size: int = 4096,
+                    map_fn: Callable | None = None) -> np.ndarray:
     """Evaluate a vectorised model over the design in row blocks of `chunk_size` (bounded
-    memory); returns (M,) or (M, T)."""
+    memory); returns (M,) or (M, T). map_fn: a `map`-like callable, map_fn(model, blocks) ->
+    outputs in order, that evaluates the blocks elsewhere (e.g. on a cluster); default builtin
+    `map`, here one after another."""
+    chunks = list(design_chunks(design, chunk_size))
+    outputs = (map_fn or map)(model, [rows for _, rows in chunks])
     out = None
-    for sl, rows in design_chunks(design, chunk_size):
-        y = np.asarray(model(rows), dtype=float)
+    for (sl, _), y in zip(chunks, outputs, strict=True):
+        y = np.asarray(y, dtype=float)
         if out is None:
             out = np.empty((design.X.shape[0],) + y.shape[1:])
         out[sl] = y
@@ -144,10 +149,11 @@ def sobol_analyze(design: SobolDesign, Y: np.ndarray, num_resamples: int = 100,
 def sobol_indices(model: Model, names: Sequence[str], mean: Sequence[float],
                   sd: Sequence[float], n_base: int = 1024, seed: int = 0,
                   chunk_size: int = 4096, num_resamples: int = 100,
-                  max_times: int = 30) -> SobolResult:
-    """Design, evaluate (chunked) and analyse in one call; see the module docstring."""
+                  max_times: int = 30, map_fn: Callable | None = None) -> SobolResult:
+    """Design, evaluate (chunked; map_fn as in evaluate_chunks) and analyse in one call; see
+    the module docstring."""
     design = sobol_design(names, mean, sd, n_base=n_base, seed=seed)
-    Y = evaluate_chunks(model, design, chunk_size=chunk_size)
+    Y = evaluate_chunks(model, design, chunk_size=chunk_size, map_fn=map_fn)
     return sobol_analyze(design, Y, num_resamples=num_resamples, max_times=max_times)
 
 

@@ -9,7 +9,9 @@
    own process: PLC on Modbus TCP, three CiA 402 drives on CAN), stored in SQL while they run, with
    the Table 11 acceptance indicators and scheme 3's condition number.
 4. Eq. 4 identified by least squares, the exact posterior, MH and SGHMC side by side.
-5. A sim-to-real diagnosis of a campaign with a hidden effect: the verdict, then the truth."""
+5. A sim-to-real diagnosis of a campaign with a hidden effect: the verdict, then the truth.
+6. Identification jobs on the runs stored in section 3 — one per scheme, through the service's
+   job queue (api.queue) and a job worker — and their test reports written as HTML files."""
 
 from __future__ import annotations
 
@@ -23,6 +25,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=1, help="emulator seed (default 1)")
     parser.add_argument("--quick", action="store_true",
                         help="one speed and direction per scheme (for a fast look)")
+    parser.add_argument("--report-dir", default="rig-demo-report",
+                        help="folder the identification reports are written to "
+                             "(default ./rig-demo-report)")
 
 
 def _loop_area(twist, torque) -> float:
@@ -244,6 +249,66 @@ def diagnose_hidden_effect(seed: int) -> str:
     return "\n".join(lines)
 
 
+DEMO_JOBS: dict[int, tuple[str, str]] = {1: ("eq11", "hmc"), 2: ("eq11", "hmc"),
+                                          3: ("eq4", "sghmc")}
+"""Scheme → (model, method) of the demo's identification job: the Bouc–Wen transmission law
+(Eq. 11 with Eq. 9) on the loading schemes, the rigid-body model (Eq. 4) on the excitation."""
+
+
+DEMO_OPTIONS: dict[str, dict] = {"hmc": {"chains": 4, "draws": 500, "warmup": 300, "seed": 0},
+                                  "sghmc": {"chains": 4, "seed": 0}}
+"""Sampler options of the demo's jobs: HMC on the Bouc–Wen law needs few draws for a demo; the
+reports show each fit's ESS and R-hat."""
+
+
+def identification_reports(acquired: list, report_dir: str) -> list[tuple[int, str, dict]]:
+    """Submit one identification job per scheme on the runs stored in section 3, run them with a
+    job worker of the database (as the service's workers do), and write each job's test report
+    (api.reports, the same page `GET /reports/jobs/{id}` serves) and an index page into
+    `report_dir`. Returns (scheme, path, job) per job."""
+    import html
+    from pathlib import Path
+
+    from api import queue
+    from api.job_kinds import KINDS
+    from api.reports import job_report, job_report_html
+    from api.worker import Worker
+    from db.engine import database_url
+
+    out_dir = Path(report_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    by_scheme: dict[int, list[int]] = {}
+    for rid, _, run in acquired:
+        by_scheme.setdefault(int(run.meta["scheme"]), []).append(rid)
+    worker = Worker(database_url())
+    done = []
+    try:
+        for scheme, ids in sorted(by_scheme.items()):
+            model, method = DEMO_JOBS[scheme]
+            params = KINDS["identification"].params.model_validate(
+                {"run_ids": ids, "model": model, "method": method,
+                 "options": DEMO_OPTIONS[method]}).model_dump()
+            job, _ = queue.submit(worker.store, "identification", params)
+            while worker.run_once() not in (job["id"], None):   # leftover queued jobs first
+                pass
+            job = queue.get_job(worker.store, job["id"])
+            path = out_dir / f"job-{job['id']}-scheme{scheme}.html"
+            path.write_text(job_report_html(job_report(worker.store, job["id"])), encoding="utf-8")
+            done.append((scheme, str(path), job))
+    finally:
+        worker.store.close()
+    links = "".join(
+        f'<li><a href="{html.escape(Path(p).name)}">scheme {s}: job {j["id"]} — '
+        f'{html.escape(j["params"]["model"])} by {html.escape(j["params"]["method"])} on runs '
+        f'{", ".join(map(str, j["params"]["run_ids"]))} ({html.escape(j["state"])})</a></li>'
+        for s, p, j in done)
+    (out_dir / "index.html").write_text(
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>rig demo: "
+        "identification reports</title></head><body><h1>rig demo: identification of the three "
+        f"schemes</h1><ul>{links}</ul></body></html>", encoding="utf-8")
+    return done
+
+
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     print("== 1. The emulated J4 rig runs the three schemes "
@@ -276,5 +341,20 @@ def run(args: argparse.Namespace) -> int:
           "model lacks (which one is kept hidden until the diagnosis has spoken)")
     print(diagnose_hidden_effect(args.seed))
 
+    print("\n== 6. Identification jobs on the stored runs of the three schemes (the service's job "
+          "queue and a worker), with their test reports")
+    jobs = identification_reports(acquired, args.report_dir)
+    for scheme, path, job in jobs:
+        tim = job.get("timings") or {}
+        print(f"   scheme {scheme}: job {job['id']} {job['params']['model']} by "
+              f"{job['params']['method']} on runs {job['params']['run_ids']}: {job['state']}"
+              f" in {tim.get('running_s') or 0:.1f} s -> {path}")
+    from pathlib import Path
+    print(f"   open {Path(args.report_dir, 'index.html').resolve()} (or `rig serve` and "
+          "GET /reports/jobs/ID with a viewer token)")
+    failed = [j for _, _, j in jobs if j["state"] != "succeeded"]
+    for j in failed:
+        print(f"   job {j['id']} {j['state']}: {(j.get('error') or '').splitlines()[:1]}")
+
     print(f"\ndemo finished in {time.perf_counter() - t0:.1f} s")
-    return 0
+    return 1 if failed else 0

@@ -77,3 +77,28 @@ def test_run_and_job_reports_render_in_chromium(sqlite_api, tmp_path):
     broken = pages["run"].replace("data:image/svg+xml;base64,", "data:image/svg+xml;base64,AAAA")
     img, _ = screenshot(broken, d / "report_broken.png", height=5000)
     assert plot_pixels(img) < 2_000
+
+
+@pytest.mark.slow
+def test_diagnosis_report_renders_in_chromium(sqlite_api, tmp_path):
+    """A diagnosis job on a stored campaign with a withheld effect: its report page, with the
+    sim-to-real gap section and its figures, renders without console messages."""
+    pytest.importorskip("numba")
+    from api.worker import Worker
+    from diagnosis_fixtures import diagnosis_body, store_campaign
+
+    api = sqlite_api
+    train, test = store_campaign(api.store)
+    r = api.client.post("/jobs", headers=api.h("operator"),
+                        json=diagnosis_body(train, test, n_boot=100))
+    w = Worker(api.url)
+    assert w.run_once() == r.json()["id"]
+    w.store.close()
+    html = api.client.get(f"/reports/jobs/{r.json()['id']}/html", headers=api.h("viewer")).text
+    assert "Sim-to-real gap" in html and html.count('alt="diagnosis_') >= 5
+    img, log = screenshot(html, _artifacts(tmp_path) / "report_diagnosis.png", height=9000)
+    console = [line for line in log.splitlines() if ":CONSOLE" in line]
+    assert console == [], console
+    # the figures are on the page: the section's residual maps, candidate bars and before/after
+    # plots put far more plot colour on it than the identification report's four figures
+    assert img.shape[0] == 9000 and plot_pixels(img) > 100_000

@@ -183,7 +183,7 @@ def test_whole_path_with_a_worker_process_to_the_job_report(api):
     html = api.client.get(f"/reports/jobs/{jid}/html", headers=api.h("viewer"))
     assert html.status_code == 200 and "Identification tables" in html.text
     imgs = _imgs(html.text)
-    assert set(imgs) == {"posterior", "corner", "rhat_trace", "autocorr"}
+    assert set(imgs) == {"predicted_vs_measured", "posterior", "corner", "rhat_trace", "autocorr"}
     assert all(b"<svg" in v and b"<path" in v for v in imgs.values())
     shtml = api.client.get(f"/reports/jobs/{sid}/html", headers=api.h("viewer")).text
     assert "sobol" in _imgs(shtml) and "Sobol indices" in shtml

@@ -57,3 +57,59 @@ def test_oov_post_processing_adds_exactly_the_documented_term():
     np.testing.assert_allclose(oov_torque(run, "position_stiffness", 2.0), 2.0 * dq * np.abs(dq))
     assert "post-processed" in out.meta["notes"]
     assert (run.samples["torque"] == 1.0).all()  # the input run is left alone
+
+
+def _tx_cell(kind, truth, effects, law_effects, regions=(), enr=1.0, status="explained"):
+    """A cell with per-law summaries (output = Eq. 4, transmission = the twist–torque law)."""
+    c = _cell(kind, truth, status, effects, enr=enr)
+    c["laws"] = {"output": {"effects": [e for e in effects if e not in law_effects],
+                            "regions": [("speed", "low speed")], "shrinkage": 0.0,
+                            "shrinkage_predicted": 0.0},
+                 "transmission": {"effects": list(law_effects), "regions": list(regions),
+                                  "shrinkage": 0.30, "shrinkage_predicted": 0.20}}
+    return c
+
+
+def test_score_has_transmission_classes_their_law_regions_and_shrinkage():
+    from simulators.validate_diagnosis import ALL_CLASSES, TRANSMISSION_CLASSES
+    assert set(TRANSMISSION_CLASSES) <= set(ALL_CLASSES)
+    cells = [_tx_cell("single", ["backlash"], ["backlash"], ["backlash"],
+                      regions=[("reversal", "near a velocity reversal")]),
+             _tx_cell("single", ["hysteresis"], ["stribeck"], [], status="explained"),
+             _tx_cell("none", [], [], [], enr=0.0, status="none")]
+    s = score(cells)
+    assert s["diagonal"]["1.0"] == {"hysteresis": 0.0, "backlash": 1.0}
+    assert s["confusion_enr_ge_1"]["hysteresis"]["stribeck"] == 1
+    assert s["confusion_enr_ge_1"]["backlash"]["backlash"] == 1
+    # overlap is read on the transmission law's regions for a transmission effect: the
+    # backlash cell's 'reversal' counts, the hysteresis cell flagged nothing there
+    assert s["region_overlap_transmission"] == 0.5
+    # shrinkage: each law that chose an effect is scored — the backlash cell's transmission
+    # law (0.30 vs 0.20 predicted: off by 0.1) and the hysteresis cell's output law (0 vs 0)
+    assert s["shrinkage_within_0.05"] == 0.5
+    assert s["false_alarm"] == 0.0
+    text = format_report({"scores": s, "cells": cells, "seeds_per_cell": 1, "emps": None,
+                          "transmission_noise": 662.0, "tuning_seeds": [101],
+                          "scoring_seeds": [1]})
+    assert "backlash" in text and "tuned on seeds [101]" in text
+
+
+def test_transmission_law_residual_is_zero_on_the_truth_and_measures_backlash():
+    """The transmission ENR's contribution: on the emulator's true records the no-effect law
+    leaves (almost) nothing, and a dead zone of half-width b shifts the law by ≈ k_u·b."""
+    import pytest
+    pytest.importorskip("numba")
+    from rig.schemes import Scheme1
+    from simulators.config import EmulatorConfig
+    from simulators.offline import simulate_records
+    from simulators.validate_diagnosis import _law_residual
+    b = 2e-4
+    out = {}
+    for label, eff in (("none", {}), ("backlash", {"backlash": {"b": b}})):
+        cfg = EmulatorConfig(seed=3, effects=eff)
+        rec, _, _ = simulate_records(Scheme1(motor_speed_rpm=3000), cfg)
+        out[label] = _law_residual(rec, cfg.params, elastic=False)
+    k_u = EmulatorConfig().params.k_u
+    assert np.sqrt(np.mean(out["none"] ** 2)) < 0.05 * k_u * b
+    contribution = np.sqrt(np.mean((out["backlash"] - out["none"]) ** 2))
+    assert 0.5 * k_u * b < contribution < 1.5 * k_u * b

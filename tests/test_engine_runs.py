@@ -210,7 +210,7 @@ def test_failing_and_cancelled_plans_are_made_safe_and_stored(standin, tmp_path)
         with pytest.raises(asyncio.CancelledError):
             await task
     try:
-        asyncio.run(cancel_after(1.2))
+        asyncio.run(cancel_after(2.0))
     finally:
         store.close()
     with Store(url) as store:

@@ -205,6 +205,19 @@ def test_fit_bouc_wen_refuses_bad_requests():
         fit_bouc_wen({k: v for k, v in sig.items() if k != "torque"}, "ls")
     with pytest.raises(TypeError, match="unknown options"):
         fit_bouc_wen(sig, "hmc", n_drawz=10)
+    with pytest.raises(ValueError, match="level"):
+        fit_bouc_wen(sig, "ls", level=1.5)
+
+
+def test_interval_level_is_honoured():
+    """`level` (the API's and identify's option) sets the interval: a 68 % interval is about
+    1/1.96 the width of the 95 % one, for least squares and for a sampler."""
+    sig = synthetic(600, seed=2)
+    for method, opts in (("ls", {}), ("mh", {"chains": 2, "n_warmup": 300, "n_draws": 600})):
+        w = {lv: (f.ci_high - f.ci_low) for lv in (0.68, 0.95)
+             for f in [fit_bouc_wen(sig, method, seed=0, level=lv, **opts)]}
+        ratio = w[0.68] / w[0.95]
+        assert np.all((ratio > 0.40) & (ratio < 0.62)), (method, ratio)
 
 
 def test_identify_dispatches_eq9_to_the_bouc_wen_fit():

@@ -210,3 +210,33 @@ def test_min_speed_drops_the_stick_rows_only():
     full = build_dataset(eq4(), [run])
     dropped = ds.signals[0].info["rows_below_min_speed"]
     assert dropped == np.sum(np.abs(full.signals[0]["qd"]) < 2e-3) and dropped > 0
+
+
+def test_backlash_dead_zone_is_a_shape_and_k_bl_is_fitted_on_twist_data():
+    """Synthetic twist data through a dead zone, T = k·bt(Δ, b) + D·Δ̇ + C + noise: eq5+backlash
+    with the true b recovers k and k_bl ≈ k (k·bt(Δ) = k·Δ + k·(bt(Δ) − Δ)), the true b has the
+    smallest residual on a grid of b, and b = 0 or a magnitude k_bl given as a shape is refused."""
+    from estimator.least_squares import ols
+    rng = np.random.default_rng(5)
+    t = np.arange(6000) * 0.01
+    delta = 4e-3 * np.sin(2 * np.pi * 0.1 * t) + 1e-3 * np.sin(2 * np.pi * 0.37 * t)
+    dd = np.gradient(delta, t)
+    k, b, D, C = 1.6e7, 6e-4, 2e5, 300.0
+    T = k * fx.backlash_twist(delta, b) + D * dd + C + rng.normal(0, 150.0, t.size)
+    sig = {"t": t, "torsion": delta, "torsion_rate": dd, "torque": T}
+    m = model_from_spec(f"eq5+backlash:b={b}")
+    assert m.param_names == ["k", "D", "C", "k_bl"]
+    res = ols(m.design(sig), m.target(sig))
+    est = dict(zip(m.param_names, res.theta))
+    se = dict(zip(m.param_names, res.se))
+    for name, truth in (("k", k), ("k_bl", k), ("D", D), ("C", C)):
+        assert abs(est[name] - truth) < 4 * se[name], (name, est[name], truth, se[name])
+    assert abs(res.sigma - 150.0) < 10.0
+    rss = {bb: ols(eq5().with_effect("backlash", b=bb).design(sig), T).rss
+           for bb in (2e-4, 4e-4, 6e-4, 8e-4, 1.2e-3)}
+    assert min(rss, key=rss.get) == b
+    assert eq11().with_effect("backlash", b=b).param_names[-1] == "k_bl"
+    with pytest.raises(ValueError, match="b"):
+        eq5().with_effect("backlash", b=0.0)
+    with pytest.raises(ValueError):
+        eq5().with_effect("backlash", k_bl=1.0)

@@ -1,0 +1,241 @@
+"""/schemes and /acquisitions: start scheme 1, 2 or 3 on the emulator or the rig (operator role),
+follow it (state, server-sent events with progress and the live key channels), stop it
+(make-safe, the run ends `abort`) or e-stop it. The acquisition runs in processes of its own
+(api/acquisition.py); the web process only starts, follows and commands them."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterable
+from contextlib import asynccontextmanager
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Body, Depends, FastAPI, HTTPException, Path, Request, Response
+from fastapi.sse import EventSourceResponse, ServerSentEvent
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
+
+from api.acquisition import (MAX_SAMPLE_RATE_TIMES_SCALE, Acquisition, AcquisitionManager,
+                             Busy)
+from api.deps import ERRORS, Operator, Viewer
+from rig.effects import EFFECT_NAMES
+from rig.params import RATED_TORQUE
+
+
+@asynccontextmanager
+async def lifespan(app: FastAPI):
+    """The service's acquisitions live and die with it: stopped (made safe) at shutdown."""
+    mgr = AcquisitionManager(app.state.settings.db_url, app.state.store)
+    app.state.acquisitions = mgr
+    try:
+        yield
+    finally:
+        await asyncio.to_thread(mgr.shutdown)
+
+
+router = APIRouter(tags=["schemes"], responses=ERRORS, lifespan=lifespan)
+
+def _utf8(v: str) -> str:
+    v.encode("utf-8")          # UnicodeEncodeError (a ValueError → 422) for lone surrogates
+    return v
+
+
+Text = Annotated[str, Field(max_length=200, pattern=r"^[^\x00-\x1f\x7f]*$"),
+                 AfterValidator(_utf8)]
+"""One line of printable text (it ends up on a command line and in the run's metadata)."""
+T = Annotated[float, Field(ge=0.0, le=600.0)]
+"""A duration [s]."""
+
+_LOADING = dict(
+    motor_speed_rpm=(float, Field(3000.0, gt=0.0, le=3000.0, description="motor speed [r/min]")),
+    direction=(Literal[1, -1], Field(1, description="sense of motion")),
+    load_target=(float, Field(RATED_TORQUE, ge=0.0, le=RATED_TORQUE,
+                              description="load at the top [N·m]")),
+    accel_time=(T, Field(1.0, description="speed ramp time [s]")),
+    settle_time=(T, Field(1.0, description="idle at speed before loading [s]")),
+    rest_time=(T, Field(1.0, description="idle at rest after the motion [s]")),
+    shear_target=(float, Field(90e3, ge=0.0, le=90e3, description="hydraulic shear [N]")),
+    sample_rate_hz=(float, Field(10.0, ge=10.0, le=1000.0, description="sample rate [Hz]")),
+)
+PARAMS: dict[int, type[BaseModel]] = {
+    1: create_model("Scheme1Params", __config__=ConfigDict(extra="forbid"),
+                    __doc__="Scheme 1: load to the top and unload at constant speed.", **_LOADING,
+                    ramp_rate=(float, Field(2.4e3, gt=0.0, le=1e5, description="[N·m/s]")),
+                    hold_top=(T, Field(0.0, description="hold at the top [s]"))),
+    2: create_model("Scheme2Params", __config__=ConfigDict(extra="forbid"),
+                    __doc__="Scheme 2: load in steps with pauses, then unload.", **_LOADING,
+                    step=(float, Field(10e3, gt=0.0, le=RATED_TORQUE, description="[N·m]")),
+                    pause=(T, Field(2.0, description="pause at each step [s]")),
+                    ramp_rate=(float, Field(3e3, gt=0.0, le=1e5, description="[N·m/s]")),
+                    unload_rate=(float, Field(3.5e3, gt=0.0, le=1e5, description="[N·m/s]"))),
+    3: create_model("Scheme3Params", __config__=ConfigDict(extra="forbid"),
+                    __doc__="Scheme 3: optimised Fourier excitation in position control.",
+                    order=(int, Field(5, ge=2, le=10)),
+                    base_freq_hz=(float, Field(0.05, gt=0.0, le=1.0, description="[Hz]")),
+                    n_periods=(int, Field(15, ge=1, le=100)),
+                    a_max=(float, Field(0.05, gt=0.0, le=1.0, description="[rad/s²]")),
+                    position_gain=(float, Field(5.0, gt=0.0, le=50.0, description="[1/s]")),
+                    opt_seed=(int, Field(0, ge=0, le=2**31 - 1)),
+                    direction=(Literal[1, -1], Field(1)),
+                    rest_time=(T, Field(2.0, description="[s]")),
+                    sample_rate_hz=(float, Field(1000.0, ge=10.0, le=1000.0, description="[Hz]"))),
+}
+"""The parameters each scheme accepts (rig.schemes' fields, bounded), paper defaults."""
+
+
+class EmulatorOptions(BaseModel):
+    """How the service's stand-in runs (target 'emulator' only)."""
+    model_config = ConfigDict(extra="forbid")
+    time_scale: float = Field(1.0, ge=0.1, le=20.0, description="rig seconds per wall second")
+    seed: int = Field(0, ge=0, le=2**31 - 1)
+    watchdog_s: float = Field(0.5, ge=0.1, le=5.0, description="the stand-in PLC's watchdog on "
+                                                               "the service heartbeat [s]")
+    effects: dict[Literal[EFFECT_NAMES], dict[Annotated[str, Field(max_length=40)], float]] = \
+        Field(default_factory=dict, max_length=len(EFFECT_NAMES),
+              description="effects injected in the emulator {name: {param: value}} "
+                          "(rig.effects vocabulary), recorded with the run")
+
+
+def _request_model(number: int) -> type[BaseModel]:
+    return create_model(
+        f"Scheme{number}RunRequest", __config__=ConfigDict(extra="forbid"),
+        target=(Literal["emulator", "rig"], Field(description="the emulator (a stand-in started "
+                                                              "for this run) or the rig of the "
+                                                              "DAQ settings")),
+        operator=(Text, Field(min_length=1, description="who runs it (stored with the run)")),
+        notes=(Text, ""),
+        params=(PARAMS[number], Field(default_factory=PARAMS[number])),
+        emulator=(EmulatorOptions, Field(default_factory=EmulatorOptions)),
+        reset_watchdog=(bool, Field(False, description="reset a PLC heartbeat-watchdog fault "
+                                                       "latched by the previous session (never "
+                                                       "an e-stop or a limit trip)")))
+
+
+AcqId = Annotated[str, Path(pattern=r"^[0-9a-f]{32}$")]
+
+
+def _manager(request: Request) -> AcquisitionManager:
+    return request.app.state.acquisitions
+
+
+def _acq(request: Request, acq_id: AcqId) -> Acquisition:
+    acq = _manager(request).get(acq_id)
+    if acq is None:
+        raise HTTPException(404, f"no acquisition {acq_id}")
+    return acq
+
+
+Acq = Annotated[Acquisition, Depends(_acq)]
+"""The acquisition of the path's id (404 if this service has none)."""
+
+
+def _start(number: int, body: BaseModel, request: Request, response: Response
+           ) -> dict[str, Any]:
+    from rig.schemes import make_scheme
+
+    params = body.params.model_dump()
+    try:
+        make_scheme(number, **params)      # the scheme's own checks (e.g. the ±180° travel)
+    except (ValueError, TypeError) as exc:
+        raise HTTPException(422, f"scheme {number}: {exc}") from None
+    spec: dict[str, Any] = {"scheme": number, "target": body.target, "params": params,
+                            "operator": body.operator, "notes": body.notes,
+                            "reset_watchdog": body.reset_watchdog}
+    if body.target == "emulator":
+        emu = body.emulator
+        if params["sample_rate_hz"] * emu.time_scale > MAX_SAMPLE_RATE_TIMES_SCALE:
+            raise HTTPException(422, f"sample rate × time scale must be ≤ "
+                                     f"{MAX_SAMPLE_RATE_TIMES_SCALE:g} Hz on the emulator "
+                                     "(its PLC poll rate): lower one of them")
+        spec.update(time_scale=emu.time_scale, seed=emu.seed, watchdog_s=emu.watchdog_s,
+                    effects=emu.effects)
+    try:
+        acq = _manager(request).start(spec)
+    except Busy as exc:
+        raise HTTPException(409, str(exc)) from None
+    response.headers["Location"] = f"/acquisitions/{acq.id}"
+    return acq.snapshot()
+
+
+def _add_start_route(number: int) -> None:
+    model = _request_model(number)
+
+    def start(caller: Operator, body, request: Request, response: Response) -> dict[str, Any]:
+        return _start(number, body, request, response)
+    start.__annotations__["body"] = Annotated[model, Body()]   # the model of this scheme
+    start.__name__ = f"start_scheme{number}"
+    router.add_api_route(
+        f"/schemes/{number}/runs", start, methods=["POST"], status_code=202,
+        summary=f"Start scheme {number} on the emulator or the rig; 202 with Location to the "
+                "acquisition",
+        responses={409: {"description": "the target already has an acquisition running"}})
+
+
+for _n in (1, 2, 3):
+    _add_start_route(_n)
+
+
+@router.get("/acquisitions", summary="Acquisitions of this service run, newest first")
+def list_acquisitions(request: Request, _: Viewer) -> list[dict[str, Any]]:
+    return [a.snapshot() for a in reversed(_manager(request).acquisitions())]
+
+
+@router.get("/acquisitions/{acq_id}",
+            summary="An acquisition: state (starting, running, stopping, ended), run id, "
+                    "progress, final run status")
+def get_acquisition(_: Viewer, acq: Acq) -> dict[str, Any]:
+    return acq.snapshot()
+
+
+def _progress_event(acq: Acquisition) -> dict[str, Any]:
+    return {"run_id": acq.run_id, **(acq.progress or {})}
+
+
+@router.get("/acquisitions/{acq_id}/events", response_class=EventSourceResponse,
+            summary="Server-sent events: `state` on each change, `progress` (phase, fraction, "
+                    "live key channels) about every 0.25 s, `end` with the run's final status")
+async def acquisition_events(_: Viewer, acq: Acq,
+                             request: Request) -> AsyncIterable[ServerSentEvent]:
+    seen_version, seen_state, seen_progress = -1, None, None
+    idle = 0.0
+    while True:
+        if acq.version != seen_version:
+            seen_version, idle = acq.version, 0.0
+            if acq.state != seen_state:
+                seen_state = acq.state
+                yield ServerSentEvent(event="state", data={"state": acq.state,
+                                                           "run_id": acq.run_id})
+            if acq.progress is not None and acq.progress is not seen_progress:
+                seen_progress = acq.progress
+                yield ServerSentEvent(event="progress", data=_progress_event(acq))
+            if acq.state == "ended":
+                yield ServerSentEvent(event="end", data=acq.snapshot())
+                return
+        if await request.is_disconnected():
+            return
+        await asyncio.sleep(0.05)
+        idle += 0.05
+        if idle >= 15.0:
+            idle = 0.0
+            yield ServerSentEvent(comment="keep-alive")
+
+
+@router.post("/acquisitions/{acq_id}/stop",
+             summary="Stop: the rig is made safe and the run ends `abort`")
+def stop_acquisition(caller: Operator, acq: Acq, request: Request) -> dict[str, Any]:
+    _manager(request).stop(acq, caller.name)
+    return acq.snapshot()
+
+
+class EStop(BaseModel):
+    """Why the operator e-stops (stored as the run's reason and interruption)."""
+    model_config = ConfigDict(extra="forbid")
+    reason: Text = "operator e-stop from the API"
+
+
+@router.post("/acquisitions/{acq_id}/estop",
+             summary="E-stop now: trip, make safe, latch the PLC's e-stop; the run ends "
+                     "`abort` with the e-stop as its reason")
+def estop_acquisition(caller: Operator, acq: Acq, request: Request,
+                      body: EStop | None = None) -> dict[str, Any]:
+    _manager(request).estop(acq, (body or EStop()).reason, caller.name)
+    return acq.snapshot()

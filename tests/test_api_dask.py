@@ -1,0 +1,282 @@
+"""Jobs on a real Dask cluster: a `dask scheduler` and two `dask worker` processes on 127.0.0.1
+(random free ports), the service (create_app with its worker pool) pointed at them with
+RIG_DASK_SCHEDULER. An identification job (MH, 4 chains) and a sensitivity job succeed with the
+same numbers the local path gives for the same seed, and their results name the Dask tasks and
+workers that ran the job and each chain / Sobol block; progress advances while the chains run on
+the cluster and a cancel stops the job there; a Dask worker killed (SIGKILL) while it runs the job
+task and a chain does not lose the job: it ends 'succeeded', run by the surviving worker."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from api_fixtures import database, store_runs
+
+pytest.importorskip("distributed")
+
+DASK = str(Path(sys.executable).with_name("dask"))
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Cluster:
+    """A scheduler and two workers (no nanny: a killed worker stays dead) on loopback."""
+
+    def __init__(self, tmp: Path):
+        from distributed import Client
+
+        self.address = f"tcp://127.0.0.1:{free_port()}"
+        self.procs: list[subprocess.Popen] = []
+        self.logs = []
+        self.procs.append(self._start(tmp, "scheduler", [
+            "scheduler", "--host", "127.0.0.1", "--port", self.address.rsplit(":", 1)[1],
+            "--no-dashboard"]))
+        for i in range(2):
+            self.procs.append(self._start(tmp, f"worker{i}", [
+                "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--no-nanny",
+                "--no-dashboard", "--name", f"w{i}", "--local-directory", str(tmp / f"w{i}"),
+                "--death-timeout", "60"]))
+        self.client = Client(self.address, timeout=30, set_as_default=False)
+        self.client.wait_for_workers(2, timeout=60)
+        self.pids = self.client.run(os.getpid)          # worker address -> pid
+        assert all(a.startswith("tcp://127.0.0.1:") for a in self.pids), self.pids  # loopback
+
+    def _start(self, tmp: Path, name: str, args: list[str]) -> subprocess.Popen:
+        log = open(tmp / f"{name}.log", "w")
+        self.logs.append(log)
+        return subprocess.Popen([DASK, *args], stdout=log, stderr=subprocess.STDOUT,
+                                cwd=tmp, start_new_session=True)
+
+    def kill_worker(self, address: str) -> None:
+        os.kill(self.pids[address], signal.SIGKILL)
+
+    def close(self) -> None:
+        self.client.close()
+        for p in reversed(self.procs):
+            if p.poll() is None:
+                p.terminate()
+        for p in self.procs:
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        for log in self.logs:
+            log.close()
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    c = Cluster(tmp_path_factory.mktemp("dask"))
+    try:
+        yield c
+    finally:
+        c.close()
+
+
+@pytest.fixture(scope="module")
+def svc(cluster, tmp_path_factory):
+    """The service on a SQLite database with two stored runs, RIG_DASK_SCHEDULER set for its
+    worker processes; yields (client, headers, store, runs)."""
+    from fastapi.testclient import TestClient
+
+    from api.app import create_app
+    from api.settings import Settings
+    from db.store import Store
+    from db.tokens import create_token
+
+    old = os.environ.get("RIG_DASK_SCHEDULER")
+    os.environ["RIG_DASK_SCHEDULER"] = cluster.address
+    try:
+        with database("sqlite", tmp_path_factory) as url:
+            store = Store(url)
+            runs = store_runs(store)
+            token = create_token(store, "dask-test", ["operator"])
+            st = Settings.from_env(db_url=url, workers=2, job_heartbeat_s=0.5)
+            assert st.dask_scheduler == cluster.address
+            with TestClient(create_app(st)) as client:
+                yield client, {"Authorization": f"Bearer {token}"}, store, runs
+            store.close()
+    finally:
+        if old is None:
+            os.environ.pop("RIG_DASK_SCHEDULER", None)
+        else:
+            os.environ["RIG_DASK_SCHEDULER"] = old
+
+
+def submit(svc, kind: str, params: dict) -> int:
+    client, h, _, _ = svc
+    r = client.post("/jobs", json={"kind": kind, "params": params}, headers=h)
+    assert r.status_code == 202, r.text
+    return r.json()["id"]
+
+
+def job(svc, jid: int) -> dict:
+    client, h, _, _ = svc
+    r = client.get(f"/jobs/{jid}", headers=h)
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def wait_final(svc, jid: int, timeout_s: float = 90.0) -> dict:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        j = job(svc, jid)
+        if j["state"] in ("succeeded", "failed", "cancelled"):
+            return j
+        time.sleep(0.1)
+    raise AssertionError(f"job {jid} did not end: {j}")
+
+
+def results(svc, jid: int) -> list[dict]:
+    client, h, _, _ = svc
+    r = client.get(f"/jobs/{jid}/results", headers=h)
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def local_reference(svc, kind: str, params: dict):
+    """The same job kind run here, chains and blocks through builtin `map` (the local path)."""
+    from api.job_kinds import KINDS
+
+    k = KINDS[kind]
+    return k.run(svc[2], k.params.model_validate(params), lambda x: None, map_fn=map)[0].fit
+
+
+def processing(cluster) -> dict[str, list[str]]:
+    return {a: [str(k) for k in ks] for a, ks in cluster.client.processing().items()}
+
+
+def test_an_unreachable_scheduler_leaves_jobs_queued(tmp_path_factory, monkeypatch):
+    from api import dask_backend, queue
+    from api.worker import Worker
+
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 1.0)
+    with database("sqlite", tmp_path_factory) as url:
+        w = Worker(url, dask_scheduler=f"tcp://127.0.0.1:{free_port()}")   # nobody listens
+        try:
+            j, _ = queue.submit(w.store, "identification",
+                                {"run_ids": [], "model": "eq4", "method": "ls"})
+            assert w.run_once() is None and w.dask is None
+            assert queue.get_job(w.store, j["id"])["state"] == "queued"
+        finally:
+            w.close()
+
+
+def test_identification_runs_on_the_cluster_and_matches_the_local_path(svc, cluster):
+    params = {"run_ids": [svc[3]["fast"]], "model": "eq4", "method": "mh",
+              "options": {"chains": 4, "draws": 2000, "warmup": 500, "seed": 7}}
+    jid = submit(svc, "identification", params)
+    j = wait_final(svc, jid)
+    assert j["state"] == "succeeded", j["error"]
+    fit = results(svc, jid)[0]["fit"]
+    where = fit["extra"]["dask"]
+    workers = set(cluster.pids)
+    assert where["scheduler"] == cluster.address
+    assert where["job_worker"] in workers and where["job_task"].startswith(f"rig-job{jid}-")
+    chains = [t for t in where["tasks"] if "-run_chain-" in t["key"]]
+    assert len(chains) == 4 and {t["worker"] for t in chains} <= workers
+    assert fit["diagnostics"]["chains"] == 4 and len(fit["diagnostics"]["rhat"]) == 5
+    assert fit["extra"]["sampler"]["independent_chains"] == 4
+
+    ref = local_reference(svc, "identification", params)
+    np.testing.assert_allclose([p["mean"] for p in fit["params"]], ref.mean, rtol=1e-12)
+    np.testing.assert_allclose([p["sd"] for p in fit["params"]], ref.sd, rtol=1e-12)
+    np.testing.assert_allclose(fit["diagnostics"]["rhat"], ref.diagnostics["rhat"], rtol=1e-12)
+
+
+def test_sensitivity_spreads_chains_and_sobol_blocks_and_matches_local(svc, cluster):
+    params = {"run_ids": [svc[3]["fast"]], "model": "eq4", "method": "mh", "n_base": 256,
+              "max_rows": 500, "options": {"chains": 2, "draws": 1000, "warmup": 500, "seed": 3}}
+    jid = submit(svc, "sensitivity", params)
+    j = wait_final(svc, jid)
+    assert j["state"] == "succeeded", j["error"]
+    fit = results(svc, jid)[0]["fit"]
+    tasks = fit["extra"]["dask"]["tasks"]
+    blocks = [t for t in tasks if "-lambda-" in t["key"]]
+    assert len([t for t in tasks if "-run_chain-" in t["key"]]) == 2
+    assert len(blocks) == 4            # 256·(5 + 2) = 1792 design rows in blocks of 512
+    assert {t["worker"] for t in tasks} <= set(cluster.pids)
+
+    ref = local_reference(svc, "sensitivity", params)
+    got = fit["extra"]["sobol"]
+    assert got["name"] == ref.extra["sobol"]["name"]
+    for col in ("S1", "ST", "S1_conf", "ST_conf"):
+        np.testing.assert_allclose(got[col], ref.extra["sobol"][col], rtol=1e-9, atol=1e-12)
+
+
+def test_a_job_that_raises_on_the_cluster_ends_failed_with_its_error(svc):
+    jid = submit(svc, "identification", {"run_ids": [svc[3]["fast"]], "model": "eq4+nosuch",
+                                         "method": "ls"})
+    j = wait_final(svc, jid)
+    assert j["state"] == "failed" and "nosuch" in j["error"] and j["result_ids"] == []
+
+
+LONG = {"model": "eq4", "method": "mh",
+        "options": {"chains": 4, "draws": 2000, "warmup": 40000, "seed": 11}}
+"""An MH job whose chains take a second or two each here (a long warm-up: cheap to store)."""
+
+
+def wait_for_chains(svc, cluster, jid: int, timeout_s: float = 60.0):
+    """(job task's worker, progress seen) once a chain of job `jid` runs on the cluster."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        proc = processing(cluster)
+        job_at = [a for a, ks in proc.items() if any(k.startswith(f"rig-job{jid}-attempt")
+                                                   for k in ks)]
+        chains = [k for ks in proc.values() for k in ks
+                  if k.startswith(f"rig-job{jid}-run_chain-")]
+        if job_at and chains:
+            return job_at[0]
+        time.sleep(0.05)
+    raise AssertionError(f"no chain of job {jid} ran: {processing(cluster)}, {job(svc, jid)}")
+
+
+def test_progress_and_cancel_while_chains_run_on_the_cluster(svc, cluster):
+    client, h, _, runs = svc
+    jid = submit(svc, "identification", {"run_ids": [runs["fast"]], **LONG})
+    wait_for_chains(svc, cluster, jid)
+    seen = set()
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not any(0.2 < p < 0.9 for p in seen):
+        seen.add(job(svc, jid)["progress"] or 0.0)      # a chain came back: progress between phases
+        time.sleep(0.05)
+    assert any(0.2 < p < 0.9 for p in seen), seen
+    r = client.post(f"/jobs/{jid}/cancel", headers=h)
+    assert r.status_code == 200 and r.json()["state"] == "cancelled"
+    deadline = time.monotonic() + 30        # the job's tasks leave the cluster
+    while time.monotonic() < deadline and any(
+            k.startswith(f"rig-job{jid}-") for ks in processing(cluster).values() for k in ks):
+        time.sleep(0.1)
+    left = [k for ks in processing(cluster).values() for k in ks if k.startswith(f"rig-job{jid}-")]
+    assert left == []
+    j = job(svc, jid)
+    assert j["state"] == "cancelled" and j["result_ids"] == []
+
+
+def test_a_killed_dask_worker_does_not_lose_the_job(svc, cluster):
+    jid = submit(svc, "identification", {"run_ids": [svc[3]["fast"]], **LONG})
+    victim = wait_for_chains(svc, cluster, jid)
+    survivor = (set(cluster.pids) - {victim}).pop()
+    cluster.kill_worker(victim)                      # SIGKILL mid-job: job task and a chain
+    j = wait_final(svc, jid, timeout_s=120)
+    assert j["state"] == "succeeded", j["error"]
+    assert j["attempts"] == 1                        # Dask re-ran the tasks; SQL never re-queued
+    fit = results(svc, jid)[0]["fit"]
+    where = fit["extra"]["dask"]
+    assert where["job_worker"] == survivor
+    chains = [t for t in where["tasks"] if "-run_chain-" in t["key"]]
+    assert len(chains) == 4 and {t["worker"] for t in chains} == {survivor}
+    assert fit["diagnostics"]["chains"] == 4 and max(fit["diagnostics"]["rhat"]) < 1.05
