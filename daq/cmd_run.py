@@ -158,11 +158,11 @@ class JsonProgress:
         pass
 
 
-async def run_controlled(engine, plan):
-    """Run `plan` while obeying stdin: `stop` cancels the run (the engine makes the rig safe
-    and ends it `abort`), `estop REASON` e-stops the rig (the run ends `abort` with the
-    e-stop as its reason), end of input or SIGTERM = stop. Returns the outcome, None if the
-    run was cancelled."""
+async def run_controlled(engine, plan, read_stdin: bool = False):
+    """Run `plan`; Ctrl-C (SIGINT) and SIGTERM stop it: the run is cancelled, the engine makes
+    the rig safe and ends it `abort`. With read_stdin, also obey stdin: `stop`, `estop REASON`
+    (e-stops the rig; the run ends `abort` with the e-stop as its reason), end of input = stop.
+    Returns the outcome, None if the run was cancelled."""
     import asyncio
     import signal
     import sys
@@ -195,8 +195,10 @@ async def run_controlled(engine, plan):
         for line in sys.stdin:
             loop.call_soon_threadsafe(command, line)
         loop.call_soon_threadsafe(command, None)
-    threading.Thread(target=read, name="stdin-commands", daemon=True).start()
+    if read_stdin:
+        threading.Thread(target=read, name="stdin-commands", daemon=True).start()
     loop.add_signal_handler(signal.SIGTERM, command, "stop")
+    loop.add_signal_handler(signal.SIGINT, command, "stop")
     try:
         return await task
     except asyncio.CancelledError:
@@ -242,12 +244,9 @@ def run(args: argparse.Namespace) -> int:
           f"{plan.duration:.1f} s of rig time, {plan.n_samples()} samples at "
           f"{plan.sample_rate_hz:g} Hz, database {store.url}", flush=True)
     try:
-        if args.control_stdin:
-            outcome = asyncio.run(run_controlled(engine, plan))
-            if outcome is None:
-                raise KeyboardInterrupt
-        else:
-            outcome = asyncio.run(engine.run(plan))
+        outcome = asyncio.run(run_controlled(engine, plan, read_stdin=args.control_stdin))
+        if outcome is None:
+            raise KeyboardInterrupt
     except KeyboardInterrupt:
         if live:
             live.close()
