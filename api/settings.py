@@ -14,6 +14,9 @@ RIG_DASK_SCHEDULER  address of a Dask distributed scheduler, e.g. tcp://10.0.0.5
                     a Dask task there, its chains and Sobol evaluations spread over the cluster's
                     workers (api.dask_backend); RIG_WORKERS is then how many jobs run at once.
                     Every Dask worker needs this package (pip install '.[dask]') and the database.
+RIG_API_CACHE_MB    memory budget of each service process's cache of answers about finished runs
+                    (aggregates, acceptance, run reports) [MiB] (default 256; 0 = no cache); read
+                    by api.response_cache, which recomputes an answer when its run changes
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ SOCKETCAND_PORT = 29536
 OTHER_ENV = frozenset({
     "RIG_CONFIG", "RIG_DB_URL", "RIG_TEST_PG_URL", "RIG_TEST_ARTIFACTS", "RIG_API_HOST",
     "RIG_API_PORT", "RIG_WORKERS", "RIG_MAX_BODY_BYTES", "RIG_JOB_HEARTBEAT_S",
-    "RIG_JOB_STALE_S", "RIG_JOB_MAX_ATTEMPTS", "RIG_DASK_SCHEDULER"})
+    "RIG_JOB_STALE_S", "RIG_JOB_MAX_ATTEMPTS", "RIG_DASK_SCHEDULER", "RIG_API_CACHE_MB"})
 """RIG_* variables owned by other parts of the service (database, API, tests): not DAQ
 settings, so `load` neither reads nor refuses them."""
 

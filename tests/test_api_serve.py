@@ -60,7 +60,9 @@ def test_rig_serve_runs_a_job_end_to_end(tmp_path):
             time.sleep(0.2)
         assert j["state"] == "succeeded", j["error"]
         page = httpx.get(f"{base}/reports/jobs/{j['id']}/html", headers=h, timeout=60)
-        assert page.status_code == 200 and page.text.count("data:image/svg+xml") == 4
+        # predicted vs measured, posterior histograms, corner plot, R-hat trace, autocorrelation
+        assert page.status_code == 200 and page.text.count("data:image/svg+xml") == 5
+        assert 'alt="predicted_vs_measured"' in page.text
         worker_pid = int(j["worker"].split("/")[1])
         assert worker_pid != proc.pid
     finally:

@@ -3,10 +3,10 @@ Viewer role."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 from fastapi import APIRouter, HTTPException
-from fastapi.responses import HTMLResponse
+from fastapi.responses import HTMLResponse, Response
 
 from api import reports
 from api.deps import ERRORS, Id, StoreDep, Viewer
@@ -15,9 +15,16 @@ from db.store import RunNotFound
 router = APIRouter(prefix="/reports", tags=["reports"], responses=ERRORS)
 
 
-def _run(store, run_id: int, plots: bool) -> dict[str, Any]:
+def _cached_run(store, run_id: int, what: str, compute: Callable[[], Any]) -> Any:
+    """`compute()` (a run report in some form), once per service process while the run and
+    what refers to it are unchanged (api/response_cache.py: keyed by the run's fingerprint;
+    runs still being written are not cached). 404 for a run that does not exist."""
+    from api.response_cache import cache_for, run_fingerprint
     try:
-        return reports.run_report(store, run_id, with_plots=plots)
+        fp = run_fingerprint(store, store.run_info(run_id))
+        if fp is None:
+            return compute()
+        return cache_for(store).get_or_compute((what, run_id, fp), compute)
     except RunNotFound:
         raise HTTPException(404, f"no run {run_id}") from None
 
@@ -29,14 +36,20 @@ def _job(store, job_id: int, plots: bool) -> dict[str, Any]:
     return rep
 
 
-@router.get("/runs/{run_id}", summary="Run report (JSON, without the figures)")
-def run_report_json(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
-    return _run(store, run_id, plots=False)
+@router.get("/runs/{run_id}", summary="Run report (JSON, without the figures)",
+            response_model=dict[str, Any])
+def run_report_json(run_id: Id, store: StoreDep, _: Viewer) -> Response:
+    from api.response_cache import json_bytes
+    body = _cached_run(store, run_id, "report-json",
+                       lambda: json_bytes(reports.run_report(store, run_id, with_plots=False)))
+    return Response(body, media_type="application/json")
 
 
 @router.get("/runs/{run_id}/html", response_class=HTMLResponse, summary="Run report page")
 def run_report_html(run_id: Id, store: StoreDep, _: Viewer) -> HTMLResponse:
-    return HTMLResponse(reports.run_report_html(_run(store, run_id, plots=True)))
+    page = _cached_run(store, run_id, "page", lambda: reports.run_report_html(
+        reports.run_report(store, run_id, with_plots=True)).encode("utf-8"))
+    return HTMLResponse(page)
 
 
 @router.get("/jobs/{job_id}", summary="Job report (JSON, without the figures)")

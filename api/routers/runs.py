@@ -9,7 +9,7 @@ from enum import IntEnum
 from typing import Any, Literal
 
 import numpy as np
-from fastapi import APIRouter, HTTPException, Query
+from fastapi import APIRouter, HTTPException, Query, Response
 from sqlalchemy import select
 
 from api.deps import ERRORS, Id, MAX_ID, StoreDep, Viewer
@@ -123,19 +123,55 @@ def run_data(run_id: Id, store: StoreDep, _: Viewer,
             "channels": {k: _jsonable(v[idx]) for k, v in arrays.items()}}
 
 
-@router.get("/{run_id}/aggregates", summary="Per-phase mean, variance, min, max, count (SQL)")
-def run_aggregates(run_id: Id, store: StoreDep, _: Viewer, by_phase: bool = True
-                   ) -> list[dict[str, Any]]:
+def _finished_key(store, run_id: int) -> tuple | None:
+    """(created_at, status, pages, samples) of a run no longer being written, None for a run
+    still running: what its stored samples depend on. One light query; 404 for no such run."""
+    with store.ReadSession() as s:
+        row = s.execute(select(Run.created_at, Run.status, Run.n_pages, Run.n_samples)
+                        .where(Run.id == run_id)).one_or_none()
+    if row is None:
+        raise HTTPException(404, f"no run {run_id}")
+    return None if row.status == "running" else tuple(row)
+
+
+@router.get("/{run_id}/aggregates", summary="Per-phase mean, variance, min, max, count (SQL)",
+            response_model=list[dict[str, Any]])
+def run_aggregates(run_id: Id, store: StoreDep, _: Viewer, by_phase: bool = True) -> Response:
+    """Computed in SQL over the page statistics; for a run no longer being written, once per
+    service process and kept encoded (api/response_cache.py), keyed by the run's page and
+    sample counts."""
     from api.reports import json_clean
-    _info(store, run_id)
-    return json_clean(store.phase_aggregates(run_id, by_phase=by_phase).to_dict(orient="records"))
+    from api.response_cache import cache_for, json_bytes
+
+    key = _finished_key(store, run_id)
+
+    def compute() -> bytes:
+        try:
+            df = store.phase_aggregates(run_id, by_phase=by_phase)
+        except RunNotFound:
+            raise HTTPException(404, f"no run {run_id}") from None
+        return json_bytes(json_clean(df.to_dict(orient="records")))
+    body = compute() if key is None else cache_for(store).get_or_compute(
+        ("aggregates", run_id, by_phase, key), compute, len)
+    return Response(body, media_type="application/json")
 
 
 @router.get("/{run_id}/acceptance", summary="Acceptance indicators (Table 11) with pass/fail")
 def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
+    """Judged on the whole run; for a run no longer being written, once per service process
+    (api/response_cache.py), keyed by the run's row (samples, pages, metadata)."""
     from api.reports import json_clean
+    from api.response_cache import cache_for
     from rig.acceptance import acceptance
-    _info(store, run_id)
-    ind = [i.as_dict() for i in acceptance(store.load_run(run_id))]
-    judged = [i["passed"] for i in ind if i["passed"] is not None]
-    return json_clean({"run_id": run_id, "passed": all(judged) if judged else None, "indicators": ind})
+
+    info = _info(store, run_id)
+
+    def compute() -> dict[str, Any]:
+        ind = [i.as_dict() for i in acceptance(store.load_run(run_id))]
+        judged = [i["passed"] for i in ind if i["passed"] is not None]
+        return json_clean({"run_id": run_id, "passed": all(judged) if judged else None,
+                           "indicators": ind})
+    if info["status"] == "running":
+        return compute()
+    key = ("acceptance", run_id, repr(sorted(info.items(), key=lambda kv: kv[0])))
+    return cache_for(store).get_or_compute(key, compute)
