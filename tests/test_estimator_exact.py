@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from estimator.exact import (nig_draws, nig_posterior, semiconjugate_draws,
-                             semiconjugate_posterior)
+from estimator.exact import (nig_draws, nig_posterior, nig_posterior_from_stats,
+                             semiconjugate_draws, semiconjugate_posterior)
 from estimator.least_squares import ols
 from estimator.priors import (conjugate_prior, initial_ratio_of_means, inv_gamma_moment_match,
                               paper_prior)
@@ -114,3 +114,39 @@ def test_sbc_exact_posterior(kind):
     assert 0.93 <= cover <= 0.97, cover
     assert np.all((hits.mean(axis=0) > 0.91) & (hits.mean(axis=0) < 0.99))
     assert ranks_uniform(ranks) > 1e-3
+
+
+def test_nig_from_sufficient_statistics_matches_residual_form():
+    """The fast path (BLAS XᵀX, y·X, Cholesky solves) against the textbook update with explicit
+    inverses, including a nearly noise-free fit where b_n must come from the residuals (the
+    Gram form yᵀy − hᵀΛ⁻¹h would lose it to cancellation); the sufficient-statistics entry point
+    agrees on ordinary data."""
+    rng = np.random.default_rng(5)
+    n, p = 4000, 4
+    X = np.column_stack([np.ones(n), rng.standard_normal((n, p - 1))])
+    theta = np.array([3.0, -2.0, 1.0, 0.5]) * 1e3
+    V0, a0 = np.diag(rng.uniform(0.5, 2.0, p)), 2.0
+
+    def textbook(y):
+        V0i = np.linalg.inv(V0)
+        Vn = np.linalg.inv(V0i + X.T @ X)
+        mn = Vn @ (V0i @ m0 + X.T @ y)
+        r, d = y - X @ mn, mn - m0
+        return mn, Vn, b0 + 0.5 * (r @ r + d @ V0i @ d)
+
+    # ordinary noise and a vague prior; then a nearly noise-free fit (residual power ~1e-24 of
+    # the signal's) with the prior centred on the truth, so that b_n is all residual
+    for noise, m0, b0 in ((0.3, rng.standard_normal(p), 0.7), (1e-9, theta, 1e-20)):
+        y = X @ theta + noise * rng.standard_normal(n)
+        post = nig_posterior(X, y, m0, V0, a0, b0)
+        mn, Vn, bn = textbook(y)
+        assert np.allclose(post.mean, mn, rtol=1e-10, atol=1e-12)
+        assert np.allclose(post.cov_unit, Vn, rtol=1e-10, atol=1e-18)
+        assert post.b == pytest.approx(bn, rel=1e-4, abs=0.0)
+        assert post.a == a0 + n / 2
+    # the from-statistics entry point is the same computation
+    y = X @ np.ones(p) + rng.standard_normal(n)
+    a = nig_posterior(X, y, np.zeros(p), V0, a0, 0.7)
+    b = nig_posterior_from_stats(X.T @ X, X.T @ y, float(y @ y), n, np.zeros(p), V0, a0, 0.7)
+    assert np.allclose(a.mean, b.mean) and a.b == pytest.approx(b.b, rel=1e-12)
+    assert a.log_marginal == pytest.approx(b.log_marginal, abs=1e-8)
