@@ -67,3 +67,35 @@ def _api(url: str):
     with TestClient(app) as client:
         yield Api(client=client, url=url, store=store, runs=runs, tokens=tokens)
     store.close()
+
+
+def get(api: Api, path: str):
+    """GET `path` as a viewer; asserts 200 and returns the JSON body."""
+    r = api.client.get(path, headers=api.h("viewer"))
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def drain(api: Api) -> None:
+    """Run every queued job in this process's Worker (the same code the worker process runs)."""
+    from api.worker import Worker
+    w = Worker(api.url)
+    while w.run_once() is not None:
+        pass
+    w.store.close()
+
+
+def wait_until_serving(base: str, proc, timeout_s: float = 60.0) -> None:
+    """Wait until the `rig serve` process `proc` answers /openapi.json at `base`."""
+    import time
+
+    import httpx
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            if httpx.get(f"{base}/openapi.json", timeout=1).status_code == 200:
+                return
+        except httpx.TransportError:
+            pass
+        assert proc.poll() is None and time.monotonic() < deadline, "rig serve did not come up"
+        time.sleep(0.1)

@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 import pytest
-from api_fixtures import api  # noqa: F401  (fixture)
+from api_fixtures import api, drain, get  # noqa: F401  (api: fixture)
 from diagnosis_fixtures import INJECTED, ORDER, diagnosis_body, store_campaign
 
 
@@ -26,20 +26,6 @@ def campaign(api):
 
 def post(api, body, role="operator"):
     return api.client.post("/jobs", json=body, headers=api.h(role))
-
-
-def get(api, path):
-    r = api.client.get(path, headers=api.h("viewer"))
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def drain(api):
-    from api.worker import Worker
-    w = Worker(api.url)
-    while w.run_once() is not None:
-        pass
-    w.store.close()
 
 
 def svgs(html: str) -> dict[str, bytes]:

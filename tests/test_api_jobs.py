@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from api_fixtures import api  # noqa: F401  (fixture)
+from api_fixtures import api, drain, get  # noqa: F401  (api: fixture)
 
 
 def ident(api, method="ls", model="eq4", **extra):
@@ -25,21 +25,6 @@ def ident(api, method="ls", model="eq4", **extra):
 def post(api, body, key=None, role="operator"):
     h = api.h(role) | ({"Idempotency-Key": key} if key else {})
     return api.client.post("/jobs", json=body, headers=h)
-
-
-def get(api, path):
-    r = api.client.get(path, headers=api.h("viewer"))
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def drain(api):
-    """Run every queued job in this process's Worker (the same code the worker process runs)."""
-    from api.worker import Worker
-    w = Worker(api.url)
-    while w.run_once() is not None:
-        pass
-    w.store.close()
 
 
 def wait_state(api, jid, states, timeout_s=120.0, min_progress=None):

@@ -17,6 +17,7 @@ import sys
 import time
 
 import pytest
+from api_fixtures import wait_until_serving
 from db_fixtures import empty_database
 
 SCALE = 5.0
@@ -313,15 +314,7 @@ def test_service_killed_mid_run_its_acquisition_makes_safe_and_ends(api, tmp_pat
                             env=env, stdout=log, stderr=subprocess.STDOUT)
     base, h = f"http://127.0.0.1:{port}", api.h("operator")
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(f"{base}/openapi.json", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert proc.poll() is None and time.monotonic() < deadline
-            time.sleep(0.1)
+        wait_until_serving(base, proc)
         r = httpx.post(f"{base}/schemes/1/runs", json=body(LONG), headers=h)
         assert r.status_code == 202, r.text
         deadline = time.monotonic() + 60

@@ -13,6 +13,7 @@ import time
 
 import httpx
 import pytest
+from api_fixtures import wait_until_serving
 
 
 def _free_port() -> int:
@@ -38,15 +39,7 @@ def test_rig_serve_runs_a_job_end_to_end(tmp_path):
     base = f"http://127.0.0.1:{port}"
     h = {"Authorization": f"Bearer {op}"}
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(f"{base}/openapi.json", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()
-            time.sleep(0.2)
+        wait_until_serving(base, proc)
         assert httpx.get(f"{base}/runs").status_code == 401
         r = httpx.post(f"{base}/jobs", headers=h, json={
             "kind": "identification",
