@@ -5,8 +5,20 @@ effect is injected but withheld from the model, the diagnosis run blind on them,
 It lives with the emulator because it drives it; the diagnosis itself (estimator.diagnosis) never
 imports the emulator and only ever sees the runs.
 
-A campaign: training runs scheme 1 at 300 and 3000 r/min, scheme 2 at 300 r/min and scheme 3 in
-the +1 direction; held-out runs the same schemes in the −1 direction (scheme 2 at 3000 r/min).
+A campaign, as a real test campaign runs it: training and held-out runs each hold both directions
+of motion and both motor speeds — training scheme 1 at 300 r/min (+1) and 3000 r/min (−1), scheme 2
+at 3000 r/min (+1), scheme 3; held-out scheme 1 at 300 r/min (−1) and 3000 r/min (+1), scheme 2 at
+300 r/min (−1), scheme 3 (8 runs, 4/4). Scheme 3's Fourier trajectory moves both ways within the
+run; it is run in the same (−1) sense in both sets: its `direction` mirrors the trajectory while
+gravity does not, so the mirrored run crosses zero twist elsewhere (where backlash and hysteresis
+act) and, as the run carrying most of the twist–torque law's signal, gives the held-out set
+another share of a transmission effect than the training set. Measured on the tuning seeds
+(101–104, backlash and hysteresis at ENR 0.5, 1, 2): the law's predicted shrinkage within 0.05
+of the realised one in 22/22 cells with scheme 3 at −1 in both sets, 19/21 at +1 in both, 13/20
+with it mirrored between the sets. (An earlier design trained on +1 runs only and held out −1
+runs: in +1 the twist of schemes 1 and 2 never reverses, a dead zone looked like an offset in
+training, and backlash's held-out shrinkage was under-predicted in 8 of its 9 scoring cells,
+by up to 0.09.)
 Every run has its own seed and its own initial joint temperature (10–45 °C, so that a
 temperature-dependent friction has cold and warm runs to show in).
 Scheme 3 is shortened (3 periods of its 20 s trajectory) and sampled at 50 Hz to keep the
@@ -100,12 +112,12 @@ def plans():
     s3 = dict(n_periods=3, sample_rate_hz=50.0)
     return [
         RunPlan(Scheme1(motor_speed_rpm=300), 0, 10.0, True),
-        RunPlan(Scheme1(motor_speed_rpm=3000), 1, 40.0, True),
-        RunPlan(Scheme2(motor_speed_rpm=300), 2, 25.0, True),
-        RunPlan(Scheme3(**s3), 3, 18.0, True),
+        RunPlan(Scheme1(motor_speed_rpm=3000, direction=-1), 1, 40.0, True),
+        RunPlan(Scheme2(motor_speed_rpm=3000), 2, 25.0, True),
+        RunPlan(Scheme3(direction=-1, **s3), 3, 18.0, True),
         RunPlan(Scheme1(motor_speed_rpm=300, direction=-1), 4, 45.0, False),
-        RunPlan(Scheme1(motor_speed_rpm=3000, direction=-1), 5, 15.0, False),
-        RunPlan(Scheme2(motor_speed_rpm=3000, direction=-1), 6, 32.0, False),
+        RunPlan(Scheme1(motor_speed_rpm=3000), 5, 15.0, False),
+        RunPlan(Scheme2(motor_speed_rpm=300, direction=-1), 6, 32.0, False),
         RunPlan(Scheme3(direction=-1, **s3), 7, 22.0, False),
     ]
 

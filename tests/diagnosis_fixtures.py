@@ -1,7 +1,7 @@
 """A stored emulator campaign with a withheld effect, for the API tests of the diagnosis job kind
 (tests/test_api_diagnosis.py, tests/test_api_browser.py): the campaign of
-simulators.validate_diagnosis (training runs schemes 1–3 in the +1 direction, held-out runs in
-the −1 direction), gear ripple injected at an effect-to-noise ratio of about 2 (the magnitude of
+simulators.validate_diagnosis (training and held-out runs each with both directions and both
+speeds), gear ripple injected at an effect-to-noise ratio of about 2 (the magnitude of
 tests/test_diagnosis.py), saved with Store.save_run."""
 
 from __future__ import annotations

@@ -238,7 +238,8 @@ def test_transmission_model_names_hysteresis_and_skips_output_effects(campaigns)
 
 # Magnitudes at an effect-to-noise ratio of about 1 on the harness campaign (its transmission
 # ENR: contribution to the twist–torque law's residual / that law's noise, 662 N·m; measured by
-# simulators.validate_diagnosis.magnitude_for: b = 4.93e-5 rad, scale = 0.331).
+# simulators.validate_diagnosis.magnitude_for: b = 4.92e-5 rad, scale = 0.331 — 4.93e-5 on the
+# earlier one-direction-per-set campaign).
 TX_ENR1 = {"backlash": {"b": 4.93e-5}, "hysteresis": {"scale": 0.331}}
 
 
@@ -272,6 +273,19 @@ def test_each_withheld_transmission_effect_alone_is_named(tx_reports, effect):
     assert rep["verdict"]["laws"]["eq4"]["status"] == "none"
     sh = tx["shrinkage"]["overall"]
     assert sh["shrinkage"] > 0.05 and sh["ci95"][0] > 0
+
+
+@pytest.mark.slow
+def test_backlash_shrinkage_predicted_from_training_matches_the_held_out(tx_reports):
+    """Backlash's held-out shrinkage on the twist–torque law is predicted from the training runs
+    within 0.05 (issue 7). It failed while the harness trained on +1 runs only and held out −1
+    runs (this seed: realised 0.233, predicted 0.152): in +1 the dead zone looked like an
+    offset. Hysteresis is not asserted here: on this seed one held-out scheme-3 run keeps
+    structure that the same run keeps even when fitted in-sample (0.53 realised vs 0.64
+    predicted); the harness scores that figure over all its cells."""
+    sh = tx_reports["backlash"]["transmission"]["shrinkage"]["overall"]
+    assert sh["shrinkage"] > 0.1
+    assert abs(sh["shrinkage"] - sh["predicted_from_training"]) <= 0.05, sh
 
 
 @pytest.mark.slow
