@@ -3,6 +3,7 @@ emulated schemes, the redundancy check, the runs stored in SQL with their accept
 the identification table, and the identification jobs of the three schemes with their reports."""
 
 import os
+import re
 import subprocess
 import sys
 
@@ -38,3 +39,7 @@ def test_demo_quick_end_to_end(tmp_path):
         assert p.name in (report_dir / "index.html").read_text(encoding="utf-8")
     assert str((report_dir / "index.html").resolve()) in out
     assert out.count(": succeeded in ") == 3, out[-3000:]
+    # ... and converged: the demo prints each job's worst R-hat and least bulk ESS
+    conv = re.findall(r"worst R-hat ([0-9.]+), least bulk ESS ([0-9]+)", out)
+    assert len(conv) == 3, out[-3000:]
+    assert all(float(r) < 1.05 and int(e) >= 100 for r, e in conv), conv
