@@ -24,13 +24,19 @@ from rig.settings import Settings
 LINE = re.compile(r"t=([\d.]+)/[\d.]+ s phase=\w+ n=(\d+) missed=(\d+)")
 
 
+def run_env(sp: StandinProcess, url: str) -> dict[str, str]:
+    """The environment of a `rig run` against the stand-in `sp`, storing into `url`."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1", RIG_DB_URL=url,
+               RIG_PLC_PORT=str(sp.plc_port), RIG_CAN_PORT=str(sp.can_port),
+               RIG_PLC_POLL_HZ="200", RIG_TPDO_RATE_HZ="100")
+    env.pop("RIG_CONFIG", None)
+    return env
+
+
 def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
     with StandinProcess(["--time-scale", "5"]) as sp:
-        env = dict(os.environ, PYTHONUNBUFFERED="1", RIG_DB_URL=url,
-                   RIG_PLC_PORT=str(sp.plc_port), RIG_CAN_PORT=str(sp.can_port),
-                   RIG_PLC_POLL_HZ="200", RIG_TPDO_RATE_HZ="100")
-        env.pop("RIG_CONFIG", None)
+        env = run_env(sp, url)
         proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme1",
                                  "--speed", "3000", "--operator", "crash-test"],
                                 cwd=REPO, env=env, stdout=subprocess.PIPE,
@@ -94,10 +100,7 @@ def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
 def test_ctrl_c_aborts_the_run_and_makes_the_rig_safe(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
     with StandinProcess(["--time-scale", "5"]) as sp:
-        env = dict(os.environ, PYTHONUNBUFFERED="1", RIG_DB_URL=url,
-                   RIG_PLC_PORT=str(sp.plc_port), RIG_CAN_PORT=str(sp.can_port),
-                   RIG_PLC_POLL_HZ="200", RIG_TPDO_RATE_HZ="100")
-        env.pop("RIG_CONFIG", None)
+        env = run_env(sp, url)
         proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme2",
                                  "--speed", "300", "--effect", "backlash"],
                                 cwd=REPO, env=env, stdout=subprocess.PIPE,
