@@ -101,6 +101,26 @@ def software_version() -> str:
     return v
 
 
+async def _off_loop(fn: Callable[..., Any], *args: Any) -> Any:
+    """Run the blocking database call `fn(*args)` in a thread, so that the event loop, which
+    also writes the heartbeat the PLC's watchdog watches, never waits on the database. A
+    cancellation meanwhile waits for the call to finish (a run is never left half-created or
+    half-stopped), then propagates."""
+    fut = asyncio.ensure_future(asyncio.to_thread(fn, *args))
+    cancelled = False
+    while True:
+        try:
+            result = await asyncio.shield(fut)
+            break
+        except asyncio.CancelledError:
+            if fut.cancelled():
+                raise
+            cancelled = True
+    if cancelled:
+        raise asyncio.CancelledError
+    return result
+
+
 def _clean(v: Any) -> Any:
     """A JSON-safe copy (non-finite floats → None, tuples → lists) for metadata."""
     if isinstance(v, dict):
@@ -190,7 +210,9 @@ class Engine:
             self._check_rate(plan)
             start = await self._read_slow()
             self.writer = RunWriter(self.store, commit_interval_s=self.commit_interval_s)
-            self.writer.start(self._start_meta(plan, start), self._channel_specs(plan))
+            # database work off the event loop: it also writes the heartbeat the PLC watches
+            await _off_loop(self.writer.start, self._start_meta(plan, start),
+                            self._channel_specs(plan))
             self._i_ev = len(rig.events)  # earlier events are in the start metadata
             await self._prepare(plan)
             status, reason = await self._loop(plan)
@@ -231,9 +253,9 @@ class Engine:
         try:
             if w is not None and w.run_id is not None:
                 try:
-                    self.store.update_run_meta(w.run_id, {"end": _clean(notes)})
+                    await _off_loop(self.store.update_run_meta, w.run_id, {"end": _clean(notes)})
                 finally:
-                    w.stop(status, reason)
+                    await _off_loop(w.stop, status, reason)
         finally:
             with contextlib.suppress(Exception):
                 await rig.stop()
@@ -630,7 +652,11 @@ class Engine:
         if not trips:
             return None
         tr = trips[0]
-        return f"interlock {tr.name}: {tr.message}"
+        reason = f"interlock {tr.name}: {tr.message}"
+        if tr.name == "plc_fault":  # was the service starved? (see PlcClient.max_beat_gap)
+            reason += (f" (longest gap between the service's heartbeats: "
+                       f"{self.rig.plc_client.max_beat_gap:.2f} s)")
+        return reason
 
     # --- reporting ------------------------------------------------------------------------------
 
@@ -642,6 +668,7 @@ class Engine:
             "plc_polls": rig.polls,
             "plc_poll_errors": rig.poll_errors, "plc_repeats": rig.repeats,
             "plc_overruns": rig.overruns, "drive_clock": self._drive_clock_mode,
+            "max_heartbeat_gap_s": round(rig.plc_client.max_beat_gap, 4),
             "drive_clock_offset_ms": dict(self._drive_offset),
         }
         if rig.drives is not None:

@@ -57,6 +57,10 @@ class PlcClient:
         self.heartbeat = 0
         self.last_beat: float | None = None
         """time.monotonic() when the PLC last acknowledged a heartbeat change."""
+        self.max_beat_gap = 0.0
+        """Longest time [s] between two acknowledged heartbeat changes: near the period when the
+        service keeps up; near the PLC's watchdog time (0.5 s) when the service was starved (a
+        loaded host, a blocked event loop) — the first thing to read after a watchdog trip."""
         self.requests = 0
         self.link_errors = 0
 
@@ -170,7 +174,10 @@ class PlcClient:
         """Change the service heartbeat once."""
         self.heartbeat = (self.heartbeat + 1) & 0x7FFF
         await self.write_commands({self.map.heartbeat: self.heartbeat})
-        self.last_beat = time.monotonic()
+        now = time.monotonic()
+        if self.last_beat is not None:
+            self.max_beat_gap = max(self.max_beat_gap, now - self.last_beat)
+        self.last_beat = now
 
     async def heartbeat_loop(self, period: float | None = None) -> None:
         """Change the heartbeat every `period` [s] until cancelled; link errors are survived

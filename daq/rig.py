@@ -37,6 +37,23 @@ from daq.plc import PlcClient, PlcError, PlcLinkError
 from rig.settings import Settings
 
 
+
+async def _cancel_all(tasks: list[asyncio.Task], timeout: float = 5.0) -> set[asyncio.Task]:
+    """Cancel `tasks` and wait until they end; returns those still running after `timeout` [s].
+    Cancelled once is not enough: Python 3.11's asyncio.wait_for (inside every pymodbus
+    request) can swallow a cancellation that races a reply, and the heartbeat and poll loops
+    would then run on forever (seen: `rig run` that never exited after its run had ended)."""
+    deadline = time.monotonic() + timeout
+    pending = set(tasks)
+    while pending and time.monotonic() < deadline:
+        for t in pending:
+            t.cancel()
+        done, pending = await asyncio.wait(pending, timeout=0.1)
+        for t in done:  # their errors were recorded by _guarded; do not re-raise them here
+            if not t.cancelled():
+                t.exception()
+    return pending
+
 class RigSafeError(Exception):
     """A set point was refused because the rig is in its safe state (see `Rig.trips`)."""
 
@@ -147,12 +164,12 @@ class Rig:
 
     async def stop(self) -> None:
         """Stop polling and the heartbeat, close the links (no commands: see make_safe)."""
-        for t in self._tasks:
-            t.cancel()
-        for t in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await t
-        self._tasks.clear()
+        tasks, self._tasks = self._tasks, []
+        left = await _cancel_all(tasks)
+        if left:
+            self.record("rig", "stop_incomplete",
+                        f"background loops still running after repeated cancels: "
+                        f"{sorted(t.get_name() for t in left)}")
         if self.drives is not None:
             await asyncio.to_thread(self.drives.close)
         self.plc_client.close()

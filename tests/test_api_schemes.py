@@ -19,6 +19,7 @@ import time
 import pytest
 from api_fixtures import wait_until_serving
 from db_fixtures import empty_database
+from drivers_harness import SLACK_ENV, SLACK_S, SLACK_STANDIN
 
 SCALE = 5.0
 SHORT = {"motor_speed_rpm": 3000.0, "load_target": 20e3, "ramp_rate": 10e3, "accel_time": 0.5,
@@ -26,9 +27,6 @@ SHORT = {"motor_speed_rpm": 3000.0, "load_target": 20e3, "ramp_rate": 10e3, "acc
 """Scheme 1 of ~6 s of rig time (~1.2 s of wall time at SCALE)."""
 LONG = {**SHORT, "load_target": 100e3, "ramp_rate": 2.5e3}
 """Scheme 1 of ~82 s of rig time (~16 s of wall time): stopped or e-stopped mid-run."""
-SLACK = {"RIG_PLC_LINK_TIMEOUT": "2.0", "RIG_DRIVE_HEARTBEAT_TIMEOUT": "2.0"}
-"""DAQ timeouts (and the stand-in's watchdog) at 2 s instead of 0.5 s: on a loaded 2-core test
-machine a starved process must not trip the rig (that is tested where it is the point)."""
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +41,7 @@ def api(tmp_path_factory):
 
     with pytest.MonkeyPatch.context() as mp, \
             empty_database("sqlite", tmp_path_factory.mktemp("schemes")) as url:
-        for k, v in SLACK.items():
+        for k, v in SLACK_ENV.items():
             mp.setenv(k, v)
         store = Store(url)
         tokens = {r: create_token(store, f"test-{r}", [r]) for r in ("viewer", "operator", "admin")}
@@ -55,7 +53,7 @@ def api(tmp_path_factory):
 
 def body(params=SHORT, **kw):
     return {"target": "emulator", "operator": "alice", "params": params,
-            "emulator": {"time_scale": SCALE, "seed": 3, "watchdog_s": 2.0}, **kw}
+            "emulator": {"time_scale": SCALE, "seed": 3, "watchdog_s": SLACK_S}, **kw}
 
 
 def start(api, params=SHORT, scheme=1, **kw):
@@ -218,7 +216,7 @@ def test_estop_mid_run_on_the_rig_aborts_with_the_estop_reason(api, monkeypatch)
     RIG_* variables as a real rig would be) — the same code path without a service stand-in."""
     from simulators.process import StandinProcess
 
-    with StandinProcess([f"--time-scale={SCALE}", "--seed=5", "--watchdog=2"]) as rig:
+    with StandinProcess([f"--time-scale={SCALE}", "--seed=5", *SLACK_STANDIN]) as rig:
         monkeypatch.delenv("RIG_CONFIG", raising=False)
         for k, v in (("RIG_PLC_PORT", rig.plc_port), ("RIG_CAN_PORT", rig.can_port),
                      ("RIG_PLC_POLL_HZ", 200), ("RIG_TPDO_RATE_HZ", 100)):

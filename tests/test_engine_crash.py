@@ -18,7 +18,7 @@ import numpy as np
 
 from daq.plc import PlcClient
 from db.store import Store
-from drivers_harness import REPO, StandinProcess, wait_for
+from drivers_harness import REPO, SLACK_ENV, SLACK_S, SLACK_STANDIN, StandinProcess, wait_for
 from rig.settings import Settings
 
 LINE = re.compile(r"t=([\d.]+)/[\d.]+ s phase=\w+ n=(\d+) missed=(\d+)")
@@ -28,14 +28,14 @@ def run_env(sp: StandinProcess, url: str) -> dict[str, str]:
     """The environment of a `rig run` against the stand-in `sp`, storing into `url`."""
     env = dict(os.environ, PYTHONUNBUFFERED="1", RIG_DB_URL=url,
                RIG_PLC_PORT=str(sp.plc_port), RIG_CAN_PORT=str(sp.can_port),
-               RIG_PLC_POLL_HZ="200", RIG_TPDO_RATE_HZ="100")
+               RIG_PLC_POLL_HZ="200", RIG_TPDO_RATE_HZ="100", **SLACK_ENV)
     env.pop("RIG_CONFIG", None)
     return env
 
 
 def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
-    with StandinProcess(["--time-scale", "5"]) as sp:
+    with StandinProcess(["--time-scale", "5", *SLACK_STANDIN]) as sp:
         env = run_env(sp, url)
         proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme1",
                                  "--speed", "3000", "--operator", "crash-test"],
@@ -73,7 +73,7 @@ def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
             c = PlcClient(Settings(plc_port=sp.plc_port))
             await c.connect()
             try:
-                await asyncio.sleep(1.0)
+                await asyncio.sleep(SLACK_S + 1.0)
                 return await c.read_status()
             finally:
                 c.close()
@@ -99,7 +99,7 @@ def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
 
 def test_ctrl_c_aborts_the_run_and_makes_the_rig_safe(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
-    with StandinProcess(["--time-scale", "5"]) as sp:
+    with StandinProcess(["--time-scale", "5", *SLACK_STANDIN]) as sp:
         env = run_env(sp, url)
         proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme2",
                                  "--speed", "300", "--effect", "backlash"],

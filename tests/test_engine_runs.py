@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import re
 import time
 from importlib import metadata
 
@@ -20,7 +21,7 @@ from daq.plc import PlcClient
 from daq.rig import Rig
 from db.store import Store
 from db_fixtures import db_url  # noqa: F401 - fixture
-from drivers_harness import StandinProcess
+from drivers_harness import SLACK_S, SLACK_STANDIN, StandinProcess, wait_for
 from rig.settings import Settings
 
 SCALE = 5.0
@@ -36,13 +37,14 @@ PHASES = {1: {"idle", "load", "unload"}, 2: {"idle", "load", "hold", "unload"},
 
 @pytest.fixture
 def standin():
-    with StandinProcess(["--time-scale", str(SCALE), "--seed", "3"]) as sp:
+    with StandinProcess(["--time-scale", str(SCALE), "--seed", "3", *SLACK_STANDIN]) as sp:
         yield sp
 
 
 def settings_for(sp: StandinProcess, **kw) -> Settings:
-    return Settings(plc_port=sp.plc_port, can_port=sp.can_port, plc_poll_hz=200.0,
-                    tpdo_rate_hz=100.0, **kw)
+    return Settings(**{"plc_port": sp.plc_port, "can_port": sp.can_port, "plc_poll_hz": 200.0,
+                       "tpdo_rate_hz": 100.0, "plc_link_timeout": SLACK_S,
+                       "drive_heartbeat_timeout": SLACK_S, **kw})
 
 
 def run_engine(sp, url, plan, settings=None, **kw):
@@ -198,19 +200,20 @@ def test_failing_and_cancelled_plans_are_made_safe_and_stored(standin, tmp_path)
 
     # the same stand-in again: its PLC latched a watchdog fault when the first session ended;
     # the engine resets that (only that) and the run is cancelled mid-way by the operator
-    time.sleep(1.0)
-    assert asyncio.run(plc_status(settings_for(standin)))["fault_code"] == 1
+    assert wait_for(lambda: asyncio.run(plc_status(settings_for(standin)))["fault_code"] == 1,
+                    timeout=3 * SLACK_S, step=0.2)
     store = Store(url)
     engine = Engine(Rig(settings_for(standin)), store, reset_watchdog_fault=True)
 
-    async def cancel_after(seconds: float):
+    async def cancel_after(samples: int):
         task = asyncio.create_task(engine.run(Plan(scheme)))
-        await asyncio.sleep(seconds)
+        while engine.n_samples < samples and not task.done():
+            await asyncio.sleep(0.01)
         task.cancel()
         with pytest.raises(asyncio.CancelledError):
             await task
     try:
-        asyncio.run(cancel_after(2.0))
+        asyncio.run(cancel_after(30))
     finally:
         store.close()
     with Store(url) as store:
@@ -261,3 +264,38 @@ def test_a_lost_drive_is_an_interruption_and_the_run_goes_on(standin, tmp_path):
         # motors 1 and 3 carry the load; motor 2 coasts
         assert np.nanmedian(np.abs(d["i_m2"][after])) < 0.2 * np.nanmedian(np.abs(d["i_m1"][after]))
         assert np.nanmax(d["torque"]) > 15e3
+
+
+class _WedgedPlan(Plan):
+    """A plan whose set-point computation blocks the event loop once for `block` s after `at` s
+    of plan time (a service wedged by a bug or a starved host)."""
+
+    def __init__(self, scheme, at: float, block: float) -> None:
+        super().__init__(scheme)
+        self.at, self.block, self.blocked = at, block, False
+
+    def setpoints(self, t, q=None):
+        if t > self.at and not self.blocked:
+            self.blocked = True
+            time.sleep(self.block)
+        return super().setpoints(t, q)
+
+
+def test_a_wedged_service_trips_the_plc_watchdog_and_the_record_says_why(tmp_path):
+    """The PLC's own watchdog (0.5 s, the default) makes the rig safe when the service stops
+    writing its heartbeat; the run ends `abort` with the longest heartbeat gap in its reason."""
+    url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
+    scheme = Plan.of(1, **PLANS[1]).scheme
+    with StandinProcess(["--time-scale", str(SCALE), "--seed", "4"]) as sp:
+        settings = settings_for(sp, plc_link_timeout=10.0)   # the watchdog, not the link, trips
+        engine, out = run_engine(sp, url, _WedgedPlan(scheme, at=2.0, block=1.5),
+                                 settings=settings)
+    assert out.exit_status == "abort", out
+    m = re.fullmatch(r"interlock plc_fault: the PLC's heartbeat watchdog made the rig safe "
+                     r"\(longest gap between the service's heartbeats: ([\d.]+) s\)", out.reason)
+    assert m and float(m.group(1)) >= 1.0, out.reason
+    with Store(url) as store:
+        info = store.run_info(out.run_id)
+        assert info["reason"] == out.reason
+        assert info["meta"]["end"]["counters"]["max_heartbeat_gap_s"] >= 1.0
+        assert info["meta"]["end"]["end"]["safe"] is True
