@@ -180,7 +180,7 @@ def main() -> int:
     line("load whole run -> numpy", "load", "base_load", 0.5)
     line("load whole run -> pandas RunData", "load_pandas", "base_load", None)
     line("per-phase aggregates (SQL)", "agg", "base_agg", 0.5)
-    print(f"\nall timings [s]: " + ", ".join(f"{k}={['%.3f' % v for v in vs]}" for k, vs in res.items()))
+    print("\nall timings [s]: " + ", ".join(f"{k}={['%.3f' % v for v in vs]}" for k, vs in res.items()))
     return 0
 
 

@@ -404,8 +404,7 @@ class Engine:
         return u
 
     def _channel_specs(self, plan: Plan) -> list[ChannelSpec]:
-        s = self.rig.settings
-        specs = [ChannelSpec("t", "s", f"plc:rig_time")]
+        specs = [ChannelSpec("t", "s", "plc:rig_time")]
         specs += [ChannelSpec(ch, unit_of(ch), f"plc:{sig}") for sig, ch in PLC_CHANNELS]
         if self.rig.drives is not None:
             for d in self.rig.drives.drives:

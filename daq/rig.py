@@ -37,7 +37,6 @@ from daq.plc import PlcClient, PlcError, PlcLinkError
 from rig.settings import Settings
 
 
-
 async def _cancel_all(tasks: list[asyncio.Task], timeout: float = 5.0) -> set[asyncio.Task]:
     """Cancel `tasks` and wait until they end; returns those still running after `timeout` [s].
     Cancelled once is not enough: Python 3.11's asyncio.wait_for (inside every pymodbus
@@ -53,6 +52,7 @@ async def _cancel_all(tasks: list[asyncio.Task], timeout: float = 5.0) -> set[as
             if not t.cancelled():
                 t.exception()
     return pending
+
 
 class RigSafeError(Exception):
     """A set point was refused because the rig is in its safe state (see `Rig.trips`)."""
