@@ -21,8 +21,51 @@ training, and backlash's held-out shrinkage was under-predicted in 8 of its 9 sc
 by up to 0.09.)
 Every run has its own seed and its own initial joint temperature (10–45 °C, so that a
 temperature-dependent friction has cold and warm runs to show in).
-Scheme 3 is shortened (3 periods of its 20 s trajectory) and sampled at 50 Hz to keep the
-harness fast.
+Scheme 3 runs 6 periods of its 20 s trajectory (124 s with the rests; the scheme's design is 15)
+sampled at 50 Hz (the design's 1 kHz would make the harness slow).
+
+Why 6 periods (measured on the campaign-design tuning seeds CAMPAIGN_TUNING_SEEDS, 101–110, never
+on the scoring seeds 1..n): the figure is the twist–torque law's predicted − realised shrinkage
+over the cells (backlash and hysteresis at ENR 0.5, 1, 2) where the law chose an effect. With 3
+periods (the earlier design) hysteresis's errors had sd 0.044 and reached 0.089 (21 of 30 cells
+within 0.05); backlash's mean −0.023, max 0.049. The cause is the output encoder's step (0.01°,
+k_u·step ≈ 2.2 kN·m in the law) where scheme 3 moves slowly: in its rests the joint sits on one
+step (a constant rounding error, drawn per run within ±1.1 kN·m) and about 30 % of its samples
+lie near reversals (|q̇| < 2e-3 rad/s), where the rounding error changes slowly and passes the
+law's low-pass. Its size depends on where the run sits on the encoder grid, which drifts from
+period to period (the per-period RMS of the law's residual after the right effect ranged
+285–416 N·m within one run), so the held-out scheme-3 run carries another noise level than the
+training one. With the encoder made exact (enc_res 1e-9, same seeds) hysteresis's errors fall to
+sd 0.004, max 0.012; zero torque noise, or one joint temperature for every run, leave them as
+they are (sd 0.046, 0.044). Hence more periods per scheme-3 run (more of the grid averaged within
+each run), not another sampling rate (3 periods at 200 Hz: sd 0.053, max 0.113). Per design
+(hysteresis | backlash: sd, max |error|): two 3-period scheme-3 runs per set (10 runs) 0.032,
+0.066 | 0.014, 0.042; scheme 3 in both directions in each set 0.031, 0.098 | 0.020, 0.053;
+4 periods 0.032, 0.085 | 0.019, 0.044; 5 periods 0.024, 0.046 | 0.014, 0.041; 6 periods
+0.015, 0.035 | 0.010, 0.034 (59 of 59 cells within 0.05, median |error| 0.011); 7 periods
+0.010, 0.024 | 0.008, 0.034; 8 periods 0.010, 0.026 | 0.008, 0.028.
+The same encoder step bounds the length from above: it makes a purely elastic transmission
+look slightly hysteretic (in the elastic world with nothing injected the hysteresis candidate
+shrinks the held-out error by 0.01–0.02 in nearly every campaign; with an exact encoder by
+≤ 0.002), and the more scheme-3 data, the more significant that is. Elastic-world campaigns
+with nothing injected, seeds 101–110, hysteresis named (held-out gain z > 3): 0 with 3 periods
+(z ≤ 2.2), 1 with 5, 0 with 6 (z 1.3–3.0; 1 of 12 with seeds 111–112 added), 3 with 7, 6 with 8.
+Of 3–8 periods, 6 is the only length that kept both figures on those seeds; on the harness's
+cells with seeds 101–103 (none cells 101–112) every target was met (top-1 at ENR 0.5 0.917, false
+alarms 0.000, shrinkage within 0.05 1.000, median 0.009). The false-alarm margin is thin
+(five of the ten elastic campaigns had z 2.7–3.0): the lasting remedy lies in the diagnosis
+(a twist free of the encoder step, or a materiality threshold on the law's shrinkage).
+Scored once with 6 periods on seeds 1..12 (`rig validate-diagnosis`, 2026-11-21): shrinkage
+within 0.05 in every cell (median 0.010), but false alarms 0.167 — hysteresis named in 3 of
+the 6 elastic-world campaigns with nothing injected (seeds 3, 4, 6: held-out shrinkage
+0.017–0.022, z 3.1–3.3), the artefact above. The remedy went into the diagnosis: a minimum
+held-out shrinkage of the twist–torque law (DiagnosisOptions.transmission_min_shrinkage = 0.04,
+set on the no-effect campaigns of seeds 101–112: 0.010–0.026 there, 0.053–0.073 for backlash at
+ENR 0.5). Because seeds 1..12 had been looked at, the harness was re-scored on those and on
+fresh seeds 201–212 (`--first-seed 201`), every target met on both: top-1 at ENR 0.5
+0.958 / 0.917, at ENR 1 and 2 1.000, diagonal 1.000, false alarms 0.000, out of vocabulary →
+unexplained 1.000, pairs 1.000, overlap 1.000, shrinkage within 0.05 1.000 (median 0.010 /
+0.008).
 
 Effect-to-noise ratio (ENR) of an injected effect = RMS over the campaign's runs of the effect's
 contribution to the measured torque channel / the torque sensor noise sd (JointParams.torque_noise,
@@ -48,7 +91,9 @@ noise and the output encoder's quantisation seen through the elastic stiffness,
   cells are scored with the other `none` cells.
 The transmission law's materiality threshold (DiagnosisOptions.transmission_min_structured)
 was set on tuning seeds (TUNING_SEEDS, `rig validate-diagnosis --tuning` prints what it
-measures there), never on the scoring seeds 1..n.
+measures there), never on the scoring seeds 1..n; its minimum shrinkage
+(DiagnosisOptions.transmission_min_shrinkage) on the no-effect campaigns of NULL_TUNING_SEEDS.
+`--first-seed` scores on other seeds (tuning seeds are refused).
 
 Out-of-vocabulary effects (outside rig.effects.VOCABULARY), emulated by post-processing the
 torque channel of every run (documented, not physics the emulator integrates):
@@ -70,11 +115,21 @@ OOV_EFFECTS = ("direction_viscous", "position_stiffness")
 TUNING_SEEDS = (101, 102, 103, 104)
 """Seeds of the tuning campaigns (thresholds); the scoring campaigns use seeds 1..n."""
 
+CAMPAIGN_TUNING_SEEDS = tuple(range(101, 111))
+"""Seeds on which the campaign's design (scheme 3's length) was chosen (module docstring)."""
+
+NULL_TUNING_SEEDS = tuple(range(101, 113))
+"""Seeds of the no-effect campaigns on which the twist–torque law's minimum shrinkage
+(DiagnosisOptions.transmission_min_shrinkage) was set."""
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true",
                    help="fewer seeds and cells (a few minutes on 2 cores)")
     p.add_argument("--seeds", type=int, default=None, help="seeds per cell (default 3, quick 2)")
+    p.add_argument("--first-seed", type=int, default=1,
+                   help="the scoring campaigns use seeds FIRST.. (default 1; they must not "
+                        "overlap the tuning seeds 101-112)")
     p.add_argument("--json", action="store_true", help="print the scores as JSON")
     p.add_argument("--no-emps", action="store_true", help="skip the EMPS records")
     p.add_argument("--tuning", action="store_true",
@@ -88,7 +143,12 @@ def run(args: argparse.Namespace) -> int:
         res = tuning()
         print(json.dumps(res, indent=2, default=float) if args.json else format_tuning(res))
         return 0
-    res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps)
+    try:
+        res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
+                       first_seed=args.first_seed)
+    except ValueError as exc:
+        print(f"rig validate-diagnosis: {exc}")
+        return 2
     if args.json:
         print(json.dumps(res, indent=2, default=float))
     else:
@@ -109,7 +169,7 @@ class RunPlan:
 def plans():
     """The campaign's runs (see the module docstring)."""
     from rig.schemes import Scheme1, Scheme2, Scheme3
-    s3 = dict(n_periods=3, sample_rate_hz=50.0)
+    s3 = dict(n_periods=6, sample_rate_hz=50.0)
     return [
         RunPlan(Scheme1(motor_speed_rpm=300), 0, 10.0, True),
         RunPlan(Scheme1(motor_speed_rpm=3000, direction=-1), 1, 40.0, True),
@@ -182,7 +242,6 @@ def world(effects: dict | None) -> tuple[dict, str]:
 
 def _law_residual(rec, params, elastic: bool):
     """T − T_law on true records (see the module docstring) [N·m]."""
-    import numpy as np
     from estimator.models import bouc_wen_x
     from rig.terms import transmission_torque
     from simulators import kernel as K
@@ -318,28 +377,37 @@ def run_cell(effects: dict[str, dict], seed: int, oov: dict | None = None) -> di
             "laws": laws, "transmission_model": tx, "seconds": seconds}
 
 
-def validate(quick: bool = False, seeds: int | None = None, emps: bool = True) -> dict:
-    """Run every cell and score it (the issue's figures); returns a JSON-ready dict."""
+def validate(quick: bool = False, seeds: int | None = None, emps: bool = True,
+             first_seed: int = 1) -> dict:
+    """Run every cell and score it (the issue's figures); returns a JSON-ready dict. The
+    scoring campaigns use seeds first_seed, first_seed + 1, … (never a tuning seed)."""
     n_seeds = seeds or (2 if quick else 3)
+    most = n_seeds * 4        # the most seeds a cell kind uses (the no-effect cells)
+    used = set(range(first_seed, first_seed + most))
+    tuned = set(TUNING_SEEDS) | set(CAMPAIGN_TUNING_SEEDS) | set(NULL_TUNING_SEEDS)
+    if first_seed < 1 or used & tuned:
+        raise ValueError(f"scoring seeds {first_seed}..{first_seed + most - 1} overlap the "
+                         f"tuning seeds {min(tuned)}..{max(tuned)} (or start below 1)")
+    seed = [first_seed + i for i in range(most)]
     enrs = (0.5, 1.0, 2.0)
     cells = []
     for enr in enrs:
         for name in ALL_CLASSES:
             for s in range(n_seeds):
                 eff = {name: magnitude_for(name, enr)}
-                cells.append({"kind": "single", "truth": [name], "enr": enr, "seed": s + 1,
-                              **run_cell(eff, s + 1)})
+                cells.append({"kind": "single", "truth": [name], "enr": enr, "seed": seed[s],
+                              **run_cell(eff, seed[s])})
     for s in range(n_seeds * (2 if quick else 4)):
-        cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": s + 1,
-                      **run_cell({}, s + 1)})
+        cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": seed[s],
+                      **run_cell({}, seed[s])})
     for s in range(n_seeds * (1 if quick else 2)):   # the elastic world, against Eq. 5
-        cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": s + 1,
-                      **run_cell(dict(ELASTIC), s + 1)})
+        cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": seed[s],
+                      **run_cell(dict(ELASTIC), seed[s])})
     for name in OOV_EFFECTS:
         for s in range(n_seeds):
             c = magnitude_for(name, 2.0)["c"]
-            cells.append({"kind": "oov", "truth": [name], "enr": 2.0, "seed": s + 1,
-                          **run_cell({}, s + 1, {name: c})})
+            cells.append({"kind": "oov", "truth": [name], "enr": 2.0, "seed": seed[s],
+                          **run_cell({}, seed[s], {name: c})})
     pairs = [("stribeck", "gear_ripple"), ("load_dependent_friction", "torque_offset"),
              ("temperature_friction", "time_delay"), ("backlash", "stribeck")]
     if not quick:
@@ -348,14 +416,16 @@ def validate(quick: bool = False, seeds: int | None = None, emps: bool = True) -
     for a, b in pairs:
         for s in range(n_seeds):
             eff = {a: magnitude_for(a, 2.0), b: magnitude_for(b, 2.0)}
-            cells.append({"kind": "pair", "truth": [a, b], "enr": 2.0, "seed": s + 1,
-                          **run_cell(eff, s + 1)})
+            cells.append({"kind": "pair", "truth": [a, b], "enr": 2.0, "seed": seed[s],
+                          **run_cell(eff, seed[s])})
     calib = {k: {"enr_at_default": v, "params_at_enr_1": magnitude_for(k, 1.0)}
              for k, v in _UNIT_ENR.items()}
     return {"cells": cells, "scores": score(cells), "emps": run_emps() if emps else None,
             "seeds_per_cell": n_seeds, "calibration": calib,
             "transmission_noise": transmission_noise(),
             "tuning_seeds": list(TUNING_SEEDS),
+            "campaign_tuning_seeds": list(CAMPAIGN_TUNING_SEEDS),
+            "null_tuning_seeds": list(NULL_TUNING_SEEDS),
             "scoring_seeds": sorted({c["seed"] for c in cells})}
 
 
@@ -478,6 +548,13 @@ def format_report(res: dict) -> str:
         lines.append(f"  thresholds tuned on seeds {res['tuning_seeds']} only (the transmission "
                      "law's materiality); scored here on seeds "
                      f"{res.get('scoring_seeds')}")
+    if res.get("campaign_tuning_seeds"):
+        cs = res["campaign_tuning_seeds"]
+        lines.append(f"  campaign design (scheme 3's length) chosen on seeds {cs[0]}–{cs[-1]}")
+    if res.get("null_tuning_seeds"):
+        ns = res["null_tuning_seeds"]
+        lines.append(f"  the twist–torque law's minimum shrinkage set on no-effect seeds "
+                     f"{ns[0]}–{ns[-1]}")
     for k, c in res.get("calibration", {}).items():
         pv = ", ".join(f"{p}={v:.4g}" for p, v in c["params_at_enr_1"].items())
         lines.append(f"  {k:<24} ENR {c['enr_at_default']:.3g} at the default magnitude; "

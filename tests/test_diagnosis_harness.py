@@ -147,3 +147,11 @@ def test_a_larger_but_insignificant_gain_does_not_end_the_greedy_search():
     eff = {n: magnitude_for(n, 2.0) for n in ("load_dependent_friction", "torque_offset")}
     cell = run_cell(eff, 3)
     assert set(cell["effects"]) >= {"load_dependent_friction", "torque_offset"}, cell["effects"]
+
+
+def test_scoring_seeds_never_overlap_the_tuning_seeds():
+    from simulators.validate_diagnosis import NULL_TUNING_SEEDS, validate
+    for first in (0, 90, 101, 112):     # 90: 3 seeds per cell use 12 seeds for the none cells
+        with pytest.raises(ValueError, match="overlap the tuning seeds"):
+            validate(seeds=3, emps=False, first_seed=first)
+    assert max(NULL_TUNING_SEEDS) < 201
