@@ -147,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
         res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
                        first_seed=args.first_seed)
     except ValueError as exc:
-        print(f"rig validate-diagnosis: {exc}")
+        import sys
+        print(f"rig validate-diagnosis: {exc}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(res, indent=2, default=float))
