@@ -13,6 +13,16 @@ metric equal to the posterior covariance, a Gaussian target rotates by an angle 
 so T drawn uniformly around π/2 gives nearly independent successive draws without the resonance
 of a fixed path length. Divergences (energy error above `max_energy_error` or a non-finite
 density) are rejected and counted.
+
+Dual averaging never takes the step below `min_step_ratio` × the step the search found for the
+current metric. On a smooth target the acceptance rises towards 1 as the step shrinks and the
+floor is never reached; where the log density has jumps its gradient does not see (the Bouc–Wen
+recursion on 20 Hz data: its sub-step count changes with β + γ), the acceptance stays below the
+target however small the step, and without the floor the step collapsed to ~1e-3 and every
+transition ran into the leapfrog cap (`max_leapfrog`). The Metropolis correction keeps the
+draws exact either way; the floor only bounds the work. `warmup_at_step_floor` counts the
+warm-up iterations spent at the floor: non-zero says the target is not smooth where the chain
+went.
 """
 
 from __future__ import annotations
@@ -32,12 +42,14 @@ class _DualAveraging:
     """Step-size adaptation towards a target acceptance probability (Hoffman & Gelman, Alg. 5)."""
 
     def __init__(self, eps0: float, target: float, gamma: float = 0.05, t0: float = 10.0,
-                 kappa: float = 0.75):
+                 kappa: float = 0.75, min_eps: float = 0.0):
         self.mu = math.log(10.0 * eps0)
         self.target, self.gamma, self.t0, self.kappa = target, gamma, t0, kappa
         self.h_bar = 0.0
         self.log_eps_bar = math.log(eps0)
+        self.log_min = math.log(min_eps) if min_eps > 0.0 else -math.inf
         self.m = 0
+        self.at_floor = 0   # updates whose step size was raised to the floor
 
     def update(self, accept_prob: float) -> float:
         self.m += 1
@@ -45,6 +57,9 @@ class _DualAveraging:
         w = 1.0 / (m + self.t0)
         self.h_bar = (1.0 - w) * self.h_bar + w * (self.target - accept_prob)
         log_eps = self.mu - math.sqrt(m) / self.gamma * self.h_bar
+        if log_eps < self.log_min:
+            log_eps = self.log_min
+            self.at_floor += 1
         eta = m ** (-self.kappa)
         self.log_eps_bar = eta * log_eps + (1.0 - eta) * self.log_eps_bar
         return math.exp(log_eps)
@@ -183,7 +198,8 @@ def curvature_metric(logp_grad: LogpGrad, x: np.ndarray) -> np.ndarray | None:
 def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: int,
         target_accept: float = 0.65, dense_metric: bool = True, path_angle: float = math.pi / 2,
         jitter: float = 0.3, max_energy_error: float = 1000.0, max_leapfrog: int = 1024,
-        init_metric: np.ndarray | None = None, threads: int = 0) -> "SamplerOutput":
+        init_metric: np.ndarray | None = None, threads: int = 0,
+        min_step_ratio: float = 0.05) -> "SamplerOutput":
     """Run HMC chains from `x0` (chains, p) on a target given as θ ↦ (log density, gradient).
 
     `target_accept` 0.65 is the optimal mean acceptance of HMC (Beskos et al. 2013; measured
@@ -194,11 +210,15 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
     target releases the GIL, as numba kernels and NumPy's linear algebra do); each chain
     adapts its own step size and metric during its `n_warmup` iterations,
     starting from `init_metric` (e.g. a Laplace covariance) or else from the target's diagonal
-    curvature at its starting point (`curvature_metric`).
+    curvature at its starting point (`curvature_metric`). `min_step_ratio` (in [0, 1); 0 turns it
+    off) is the step-size floor relative to each step-size search (module docstring).
     Returns draws (chains, n_draws, p) in the target's coordinates, the mean acceptance
     probability per chain, the wall time in `seconds` (warm-up included, as every sampler here
     reports it), and in `extra`: the warm-up and sampling-phase times summed over chains, step sizes, divergences per chain, gradient
-    evaluations per chain, the adapted inverse metrics and the leapfrog steps per transition."""
+    evaluations per chain (leapfrog steps; `warmup_n_grad` those of the warm-up), the adapted
+    inverse metrics, the leapfrog steps per transition and `warmup_at_step_floor`."""
+    if not 0.0 <= min_step_ratio < 1.0:
+        raise ValueError(f"min_step_ratio must lie in [0, 1), not {min_step_ratio}")
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
     n_chains, p = x0.shape
     ss = np.random.SeedSequence(seed)
@@ -211,6 +231,8 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
     n_grad = np.zeros(n_chains, dtype=int)
     metrics = np.zeros((n_chains, p, p))
     steps_used = np.zeros(n_chains)
+    at_floor = np.zeros(n_chains, dtype=int)
+    warm_grad = np.zeros(n_chains, dtype=int)
     windows = _warmup_windows(n_warmup)
 
     def run_chain(c: int) -> tuple[float, float]:
@@ -221,7 +243,7 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
         if start_metric is not None:
             ch.set_metric(np.asarray(start_metric, dtype=float))
         eps = ch.initial_step_size()
-        da = _DualAveraging(eps, target_accept)
+        da = _DualAveraging(eps, target_accept, min_eps=min_step_ratio * eps)
         window_draws: list[np.ndarray] = []
         w_iter = iter(windows)
         window = next(w_iter, None)
@@ -246,18 +268,25 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
                 # shrink towards the diagonal (scale-free, unlike Stan's 1e-3·I, which would
                 # swamp a parameter whose posterior sd is below ~0.03 in its own units)
                 cov = (nw / (nw + 5.0)) * cov + (5.0 / (nw + 5.0)) * np.diag(np.diag(cov))
-                try:
-                    ch.set_metric(cov)
-                except np.linalg.LinAlgError:
-                    ch.set_metric(np.diag(np.diag(cov)))
+                var = np.diag(cov)
+                if np.all(np.isfinite(cov)) and np.all(var > 0.0):
+                    try:
+                        ch.set_metric(cov)
+                    except np.linalg.LinAlgError:
+                        ch.set_metric(np.diag(var))
+                # else: the chain did not move in some coordinate during the window (every
+                # proposal rejected): no scale to learn from it, the metric stays as it was
                 eps = ch.initial_step_size()
-                da = _DualAveraging(eps, target_accept)
+                at_floor[c] += da.at_floor
+                da = _DualAveraging(eps, target_accept, min_eps=min_step_ratio * eps)
                 window_draws = []
                 window = next(w_iter, None)
         if n_warmup > 0:
             eps = da.final()
+            at_floor[c] += da.at_floor
         step_sizes[c] = eps
         metrics[c] = ch.cov
+        warm_grad[c] = ch.n_grad
         t1 = time.perf_counter()
         acc_sum = 0.0
         st = 0
@@ -287,5 +316,6 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
                          extra={"step_size": step_sizes, "divergences": divergences,
                                 "warmup_divergences": warm_div, "n_grad": n_grad,
                                 "inverse_metric": metrics, "leapfrog_per_draw": steps_used,
+                                "warmup_n_grad": warm_grad, "warmup_at_step_floor": at_floor,
                                 "warmup_seconds": t_warm, "sampling_seconds": t_sample,
                                 "threads": int(threads) if threads and n_chains > 1 else 1})
