@@ -135,11 +135,20 @@ def cache_for(store: Any) -> ResponseCache:
         return c
 
 
+def run_row_key(info: dict[str, Any]) -> str | None:
+    """The run's row `info` (Store.run_info: samples, pages, status, metadata) as a cache key;
+    None for a run still being written (not cacheable)."""
+    if info.get("status") == "running":
+        return None
+    return repr(sorted(info.items(), key=lambda kv: kv[0]))
+
+
 def run_fingerprint(store: Any, info: dict[str, Any]) -> tuple | None:
     """What a run's answers are built from, as a hashable tuple, from the run's row `info`
     (Store.run_info) and the ids of the results, stored documents (reports rows) and
     interruptions referring to the run. None for a run still being written (not cacheable)."""
-    if info.get("status") == "running":
+    row = run_row_key(info)
+    if row is None:
         return None
     from sqlalchemy import func, or_, select
 
@@ -153,7 +162,7 @@ def run_fingerprint(store: Any, info: dict[str, Any]) -> tuple | None:
             or_(Report.run_id == info["id"], Report.result_id.in_(results)))).one()
         intr = s.execute(select(func.count(), func.max(Interruption.id))
                          .where(Interruption.run_id == info["id"])).one()
-    return (repr(sorted(info.items(), key=lambda kv: kv[0])), tuple(res), tuple(docs), tuple(intr))
+    return (row, tuple(res), tuple(docs), tuple(intr))
 
 
 def json_bytes(value: Any) -> bytes:

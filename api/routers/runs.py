@@ -161,7 +161,7 @@ def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
     """Judged on the whole run; for a run no longer being written, once per service process
     (api/response_cache.py), keyed by the run's row (samples, pages, metadata)."""
     from api.reports import json_clean
-    from api.response_cache import cache_for
+    from api.response_cache import cache_for, run_row_key
     from rig.acceptance import acceptance
 
     info = _info(store, run_id)
@@ -171,7 +171,7 @@ def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
         judged = [i["passed"] for i in ind if i["passed"] is not None]
         return json_clean({"run_id": run_id, "passed": all(judged) if judged else None,
                            "indicators": ind})
-    if info["status"] == "running":
+    row = run_row_key(info)
+    if row is None:
         return compute()
-    key = ("acceptance", run_id, repr(sorted(info.items(), key=lambda kv: kv[0])))
-    return cache_for(store).get_or_compute(key, compute)
+    return cache_for(store).get_or_compute(("acceptance", run_id, row), compute)
