@@ -81,9 +81,9 @@ def _emit(event: dict[str, Any]) -> None:
 
 def run_command(spec: dict[str, Any], db_url: str) -> list[str]:
     """The `rig run` command line of an acquisition spec (see AcquisitionManager.start)."""
-    from daq.cmd_run import SCHEME_ARGS
+    from commands.cmd_run import SCHEME_ARGS
     option = {name: "--" + dest.replace("_", "-") for dest, (name, _, _) in SCHEME_ARGS.items()}
-    cmd = [sys.executable, "-m", "rig.cli", "run", f"scheme{spec['scheme']}", "--json-progress",
+    cmd = [sys.executable, "-m", "commands.cli", "run", f"scheme{spec['scheme']}", "--json-progress",
            "--control-stdin", "--db", db_url, "--source", spec["target"]]
     # OPTION=VALUE throughout: a value starting with '-' is never taken for an option
     for name, value in spec["params"].items():
@@ -130,7 +130,7 @@ def latch_plc_estop(env: dict[str, str]) -> str:
     import asyncio
 
     from daq.plc import PlcClient
-    from rig.settings import Settings
+    from daq.settings import Settings
 
     async def latch() -> None:
         client = PlcClient(Settings.load(env=env))

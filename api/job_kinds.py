@@ -9,7 +9,7 @@ from typing import Annotated, Any, Callable, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints
 
-from rig.effects import EFFECT_NAMES
+from core.effects import EFFECT_NAMES
 
 MODEL_PATTERN = r"^(eq4|eq5|eq9|eq11)(\+[a-z][a-z0-9_]*)*$"
 """A model by name (estimator.models), optionally with effect terms: 'eq4+backlash'."""
@@ -174,7 +174,7 @@ def run_diagnosis(store, params: DiagnosisParams, progress: Progress) -> list[St
     diagnosis made them) stored beside it; all linked to the runs by role."""
     from estimator.diagnosis import DiagnosisOptions, diagnose_detailed
     from estimator.preprocess import PrepOptions
-    from rig.run import RunData
+    from core.run import RunData
 
     both = sorted(set(params.run_ids) & set(params.test_run_ids))
     if both:        # (not a schema rule: checked when the job runs, it fails with this reason)

@@ -36,7 +36,7 @@ def run_report(store: Store, run_id: int, with_plots: bool = True) -> dict[str, 
     per-phase aggregates (SQL) and, with_plots, the figures as SVG bytes under 'plots'."""
     from api import queue
     from api.run_plots import RUN_PLOTS
-    from rig.acceptance import acceptance
+    from core.acceptance import acceptance
 
     info = store.run_info(run_id)
     run = store.load_run(run_id)

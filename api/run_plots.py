@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rig.channels import unit_of  # noqa: E402
+from core.channels import unit_of  # noqa: E402
 
 MAX_POINTS = 4000
 """Points per curve in a report plot (decimated evenly; keeps the SVG light)."""

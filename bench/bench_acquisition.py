@@ -41,7 +41,7 @@ sys.path.insert(0, str(REPO))
 from machine import describe  # noqa: E402  (bench/machine.py: run as python bench/NAME.py)
 from daq.plc import PlcClient  # noqa: E402
 from daq.rig import Rig  # noqa: E402
-from rig.settings import Settings  # noqa: E402
+from daq.settings import Settings  # noqa: E402
 
 
 def machine() -> str:

@@ -112,7 +112,7 @@ def build_database(url: str, small_runs: int) -> tuple[int, int, str]:
     its samples, a viewer token)."""
     from db.store import Store
     from db.tokens import create_token
-    from rig.schemes import Scheme1
+    from core.schemes import Scheme1
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 
@@ -161,7 +161,7 @@ class Server:
         env = {**os.environ, "RIG_DB_URL": url}
         if not cache:
             env["RIG_API_CACHE_MB"] = "0"        # api/response_cache.py off: every answer computed
-        cmd = [sys.executable, "-m", "rig.cli", "serve", "--host", "127.0.0.1",
+        cmd = [sys.executable, "-m", "commands.cli", "serve", "--host", "127.0.0.1",
                "--port", str(port), "--workers", "0"]
         self.cmd, self.log = cmd, log
         self.base = f"http://127.0.0.1:{port}"

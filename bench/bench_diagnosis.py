@@ -2,7 +2,7 @@
 [--quick] [--seeds N] [--no-emps]`.
 
 Generates emulator campaigns with effects injected but withheld from the model
-(simulators.validate_diagnosis), runs estimator.diagnosis blind on each, and prints the confusion
+(commands.diagnosis_harness), runs estimator.diagnosis blind on each, and prints the confusion
 matrix, the issue's figures against their targets, the EMPS result, the machine, and the median
 wall time of one diagnosis. There is no open peer tool that diagnoses a joint's sim-to-real gap;
 the reference printed next to ours is the naive rule "blame the candidate with the best held-out
@@ -35,7 +35,7 @@ def machine() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     import numpy as np
-    from simulators.validate_diagnosis import format_report, validate
+    from commands.diagnosis_harness import format_report, validate
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--seeds", type=int, default=None)

@@ -35,8 +35,8 @@ def main() -> int:
 
     import numba
 
-    from rig.effects import VOCABULARY
-    from rig.schemes import Scheme1
+    from core.effects import VOCABULARY
+    from core.schemes import Scheme1
     from simulators import kernel as K
     from simulators import reference as R
     from simulators.config import EmulatorConfig

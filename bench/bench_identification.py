@@ -62,8 +62,8 @@ from estimator.bouc_wen_kernel import bw_state  # noqa: E402
 from estimator.diagnostics import ess_bulk, split_rhat  # noqa: E402
 from estimator.exact import nig_draws, nig_posterior  # noqa: E402
 from estimator.priors import Scaling, conjugate_prior  # noqa: E402
-from rig.params import JointParams  # noqa: E402
-from rig.terms import eq11_regressor  # noqa: E402
+from core.params import JointParams  # noqa: E402
+from core.terms import eq11_regressor  # noqa: E402
 
 P = JointParams()
 THETA = np.array([P.k_u, P.k_h, 300.0, P.D + P.f_c, 500.0])
@@ -334,7 +334,7 @@ def numpyro_bouc_wen(tgt, mode, n_warmup, n_samples, seed):
             ax = jnp.abs(x)
             return x + (1.0 - beta * s * ax ** (n_bw - 1) * x - gamma * ax ** n_bw) * h
 
-        def step(x, d):   # rig.terms.bouc_wen_step, sub-steps and all
+        def step(x, d):   # core.terms.bouc_wen_step, sub-steps and all
             s = jnp.where(d >= 0.0, 1.0, -1.0)
             scale = (jnp.abs(beta) + jnp.abs(gamma)) * jnp.maximum(jnp.abs(x), 1e-3) ** (n_bw - 1)
             m = jnp.floor(jnp.abs(d) * scale / 0.05).astype(jnp.int32) + 1

@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from db.store import Store  # noqa: E402
 from db.writer import RunWriter  # noqa: E402
-from rig.run import RunData  # noqa: E402
+from core.run import RunData  # noqa: E402
 
 N_CHANNELS = 20
 PHASE_ORDER = ("idle", "load", "hold", "unload")

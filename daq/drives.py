@@ -2,7 +2,7 @@
 S120 drives (CiA 402), or their stand-ins — only the settings say which.
 
 - NMT, heartbeat producer configuration (0x1017), PDO configuration by SDO (TPDO event timers
-  from the settings, mappings from rig/drives.eds), modes of operation;
+  from the settings, mappings from core/drives.eds), modes of operation;
 - each drive brought to OPERATION ENABLED through the CiA 402 state machine (SDO, checked
   against the statusword at every step);
 - TPDO reception with timestamps: the fast TPDO (speed, current, the drive's sample time
@@ -32,8 +32,8 @@ from typing import Any, Callable
 import canopen
 from canopen.objectdictionary import import_od
 
-from rig import drive_od as D
-from rig.settings import Settings
+from core import drive_od as D
+from daq.settings import Settings
 
 log = logging.getLogger(__name__)
 

@@ -40,8 +40,8 @@ from daq.plc import PlcLinkError
 from daq.rig import Rig, RigSafeError
 from db.store import Store
 from db.writer import ChannelSpec, RunWriter
-from rig.channels import unit_of
-from rig.plc_map import REGISTER_MAP
+from core.channels import unit_of
+from core.plc_map import REGISTER_MAP
 
 EXIT_SUCCESS, EXIT_ABORT, EXIT_FAIL = "success", "abort", "fail"
 
@@ -320,12 +320,12 @@ class Engine:
 
     def _check_rate(self, plan: Plan) -> None:
         """Refuse a sample rate the PLC poll cannot deliver at this time scale."""
-        achievable = self.rig.settings.plc_poll_hz / self.time_scale
+        achievable = self.daq.settings.plc_poll_hz / self.time_scale
         if achievable < 0.9 * plan.sample_rate_hz:
             raise ValueError(
                 f"sample rate {plan.sample_rate_hz:g} Hz needs a PLC poll of at least "
                 f"{plan.sample_rate_hz * self.time_scale:.0f} Hz at {self.time_scale:.2f} rig s "
-                f"per wall s (plc_poll_hz is {self.rig.settings.plc_poll_hz:g}): lower the "
+                f"per wall s (plc_poll_hz is {self.daq.settings.plc_poll_hz:g}): lower the "
                 "sample rate or raise RIG_PLC_POLL_HZ")
 
     async def _read_slow(self) -> dict[str, Any]:
@@ -354,7 +354,7 @@ class Engine:
         return _clean(out)
 
     def _start_meta(self, plan: Plan, baseline: dict[str, Any]) -> dict[str, Any]:
-        s = self.rig.settings
+        s = self.daq.settings
         meta = plan.meta()
         meta.update({
             "rig": self.rig_name, "source": self.source,
@@ -375,7 +375,7 @@ class Engine:
 
     def _descriptors(self, plan: Plan) -> dict[str, Any]:
         """One descriptor per stream: its source and its channels with units."""
-        s = self.rig.settings
+        s = self.daq.settings
         plc = {ch: unit_of(ch) for _, ch in PLC_CHANNELS}
         out: dict[str, Any] = {
             "plc": {"source": f"PLC status block, Modbus TCP {s.plc_host}:{s.plc_port}",
@@ -433,7 +433,7 @@ class Engine:
 
     async def _loop(self, plan: Plan) -> tuple[str, str | None]:
         rig = self.rig
-        tick = max(0.002, 1.0 / rig.settings.plc_poll_hz)
+        tick = max(0.002, 1.0 / daq.settings.plc_poll_hz)
         # set points go out at most every `cmd_period` s of rig time (the dynamometer lags
         # 0.2 s; a 20 Hz position loop at k_p = 5/s moves 1/4 of its error per update)
         cmd_period = min(0.5 * plan.period, 0.05)

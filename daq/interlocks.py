@@ -25,8 +25,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Mapping
 
-from rig.plc_map import REGISTER_MAP
-from rig.settings import Settings
+from core.plc_map import REGISTER_MAP
+from daq.settings import Settings
 
 INTERLOCKS = ("torque", "bending", "shear", "pressure", "motor_temperature", "estop",
               "plc_fault", "plc_link", "drive_link")

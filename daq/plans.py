@@ -1,6 +1,6 @@
 """A scheme as a plan: what the rig is told to do at each instant of rig time.
 
-The scheme (rig/schemes.py) owns the profiles; a `Plan` turns them into the set points the
+The scheme (core/schemes.py) owns the profiles; a `Plan` turns them into the set points the
 engine (daq/engine.py) sends — motor speed, dynamometer torque, pump, pressure — plus the
 phase label and the sample grid. Times are plan time [s] on the RIG's clock (the PLC's
 `rig_time` minus its value at the start of the run), so a plan runs the same on the real rig
@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from rig.params import REDUCTION
-from rig.schemes import RPM, Scheme1, Scheme2, Scheme3, make_scheme
+from core.params import REDUCTION
+from core.schemes import RPM, Scheme1, Scheme2, Scheme3, make_scheme
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,11 @@
 """The PLC driver: an async pymodbus client for the S7-1500's MB_SERVER (or its stand-in).
 
 - Bounded behaviour, never pymodbus' defaults: timeout 0.5–1 s, retries 0–1, reconnect
-  back-off capped at 1–5 s (rig.settings validates them). The client reconnects by itself;
+  back-off capped at 1–5 s (daq.settings validates them). The client reconnects by itself;
   while the link is down calls fail fast with `PlcLinkError`.
 - The Modbus request limits are enforced here (the client would send over-long writes):
   reads are split into requests of ≤ 125 registers, writes into ≤ 123.
-- Decoding and scaling come from rig/plc_map.py; the status block is read in one request.
+- Decoding and scaling come from core/plc_map.py; the status block is read in one request.
 - `heartbeat_loop` changes the watchdog counter every `heartbeat_period`; the PLC makes the
   rig safe when it stops changing.
 """
@@ -20,8 +20,8 @@ from typing import Mapping
 from pymodbus.client import AsyncModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
-from rig.plc_map import MAX_READ_REGISTERS, MAX_WRITE_REGISTERS, REGISTER_MAP, RegisterMap
-from rig.settings import Settings
+from core.plc_map import MAX_READ_REGISTERS, MAX_WRITE_REGISTERS, REGISTER_MAP, RegisterMap
+from daq.settings import Settings
 
 log = logging.getLogger(__name__)
 

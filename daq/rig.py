@@ -34,7 +34,7 @@ from typing import Any, AsyncIterator
 from daq.drives import DriveError, DriveEvent, DriveMaster
 from daq.interlocks import Interlocks, Trip
 from daq.plc import PlcClient, PlcError, PlcLinkError
-from rig.settings import Settings
+from daq.settings import Settings
 
 
 async def _cancel_all(tasks: list[asyncio.Task], timeout: float = 5.0) -> set[asyncio.Task]:

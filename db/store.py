@@ -22,9 +22,9 @@ from db.engine import make_engine, reader, session_factory
 from db.models import (EXIT_STATUSES, Channel, Interruption, Rig, Run, SampleBlock, SamplePage,
                        utcnow)
 from db.pages import PAGE_SAMPLES, ChannelRef, assemble, channel_kind, write_pages
-from rig.channels import PHASES, unit_of
-from rig.run import RunData
-from rig.runfile import validate_meta, validate_samples
+from core.channels import PHASES, unit_of
+from core.run import RunData
+from core.runfile import validate_meta, validate_samples
 
 STALE_AFTER_S = 30.0
 """A running run whose writer is on another host and has not committed for this long is
@@ -140,8 +140,8 @@ class Store:
                  imported_from: str | None = None, units: dict[str, str] | None = None,
                  sources: dict[str, str] | None = None, max_page: int = PAGE_SAMPLES) -> int:
         """Store a whole run in one transaction (all or nothing); returns its id. The run is
-        validated first as run-format.md says (rig.runfile; RunFileError when it breaks a rule).
-        Units: `units` > meta['units'] > rig.channels. Channel source: `sources` > the imported
+        validated first as run-format.md says (core.runfile; RunFileError when it breaks a rule).
+        Units: `units` > meta['units'] > core.channels. Channel source: `sources` > the imported
         file's name > meta['source']."""
         if exit_status is not None and exit_status not in EXIT_STATUSES:
             raise ValueError(f"exit_status must be one of {EXIT_STATUSES}, got {exit_status!r}")
@@ -306,7 +306,7 @@ class Store:
         """Per channel and phase (or per channel over the whole run with by_phase=False), from
         SQL aggregates over the page statistics: count (valid samples), missing, mean,
         var (sample variance, n−1), min, max. Numeric channels only; phase None = samples
-        without a phase. Rows in channel order, phases in rig.channels.PHASES order."""
+        without a phase. Rows in channel order, phases in core.channels.PHASES order."""
         b, p, c = SampleBlock.__table__, SamplePage.__table__, Channel.__table__
         n = func.sum(b.c.n_valid)
         s1, s2 = func.sum(b.c.s1), func.sum(b.c.s2)

@@ -28,8 +28,8 @@ from sqlalchemy import insert, update
 from db.models import EXIT_STATUSES, Interruption, Run, utcnow
 from db.pages import PAGE_SAMPLES, ChannelRef, write_pages
 from db.store import Store, _parse_started, writer_identity
-from rig.channels import PHASES, unit_of
-from rig.runfile import validate_meta
+from core.channels import PHASES, unit_of
+from core.runfile import validate_meta
 
 HEARTBEAT_S = 5.0
 """How often an idle writer still commits its heartbeat [s] (< store.STALE_AFTER_S)."""
@@ -37,7 +37,7 @@ HEARTBEAT_S = 5.0
 
 @dataclass(frozen=True)
 class ChannelSpec:
-    """A channel the writer will receive: name, unit (None: meta['units'] or rig.channels),
+    """A channel the writer will receive: name, unit (None: meta['units'] or core.channels),
     source (the device or stream it comes from; None: meta['source']) and kind ('float',
     'text'; the channel named 'phase' is always the phase)."""
     name: str

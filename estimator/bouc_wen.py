@@ -4,7 +4,7 @@
 Model. x is the Bouc–Wen state driven by the measured twist (estimator.bouc_wen_kernel: the
 emulator's own step, with forward sensitivities), starting at 0 on the first sample of each run
 (within a run it runs through dropout gaps: the state persists physically). Given x,
-Eq. 11 is linear in θ = (k_u, k_h, f_v, D+f_c, C) (rig.terms.eq11_regressor). For every n the
+Eq. 11 is linear in θ = (k_u, k_h, f_v, D+f_c, C) (core.terms.eq11_regressor). For every n the
 state scales with α — x(α, β, γ) = α·x(1, β·α^(n−1), γ·α^(n−1)) — so only α·k_h is identified:
 α is fixed (1 by default, rig.md) and the free nonlinear parameters are (β, γ). Their support is
 β > 0 and β + γ > 0 (the state saturates at (α/(β+γ))^(1/n) when loading and stays bounded when
@@ -64,11 +64,11 @@ from estimator.bouc_wen_kernel import (SUPPORTED_N, _state, _state_sens, bw_stat
 from estimator.exact import NIGPosterior, nig_draws, nig_posterior
 from estimator.priors import Prior, Scaling, conjugate_prior
 from estimator.result import Fit
-from rig.params import JointParams
-from rig.terms import eq11_regressor
+from core.params import JointParams
+from core.terms import eq11_regressor
 
 LINEAR_NAMES: tuple[str, ...] = ("k_u", "k_h", "f_v", "D+f_c", "C")
-"""Eq. 11's linear parameters in the order of rig.terms.eq11_regressor's columns."""
+"""Eq. 11's linear parameters in the order of core.terms.eq11_regressor's columns."""
 LINEAR_UNITS: tuple[str, ...] = ("N·m/rad", "N·m/rad", "N·m", "N·m·s/rad", "N·m")
 X_COLUMN = 1
 """Index of the Bouc–Wen state x among eq11_regressor's columns."""

@@ -1,7 +1,7 @@
 """The Bouc–Wen recursion over a measured twist series, compiled with numba, with its forward
 sensitivities (Eq. 9 of the paper, rig.md's "Flexible transmission").
 
-The state update is `rig.terms.bouc_wen_step` — the emulator's own function, compiled here as is —
+The state update is `core.terms.bouc_wen_step` — the emulator's own function, compiled here as is —
 so the identification integrates the hysteresis exactly as the emulator does. The tangent-linear
 kernel below advances the same explicit sub-steps (same sub-step count, same arithmetic for the
 state, which a test checks bit for bit against the shared step) and carries dx/dα, dx/dβ, dx/dγ
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from rig.terms import bouc_wen_step
+from core.terms import bouc_wen_step
 
 SUPPORTED_N: tuple[int, ...] = (1, 2, 3, 4)
 """Bouc–Wen exponents the identification accepts (the paper fixes n = 1)."""
@@ -61,7 +61,7 @@ def _state_sens(delta, x0, alpha, beta, gamma, n, restart):
             x[k] = xc
             continue
         d_delta = delta[k] - delta[k - 1]
-        # --- identical to rig.terms.bouc_wen_step (tests check the state bit for bit) ---
+        # --- identical to core.terms.bouc_wen_step (tests check the state bit for bit) ---
         s = 1.0 if d_delta >= 0.0 else -1.0
         scale = (abs(beta) + abs(gamma)) * max(abs(xc), 1e-3) ** (n - 1)
         msub = int(abs(d_delta) * scale / 0.05) + 1

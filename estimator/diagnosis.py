@@ -8,7 +8,7 @@ unmodelled effect of rig.md's vocabulary explains it, and how far the held-out e
    localised by region (estimator.diagnosis_regions), and tested for whiteness, residual–input
    cross-correlation, a spectral line in time and a line in output angle
    (estimator.diagnosis_stats).
-2. Which effect. Every effect of rig.effects.VOCABULARY that applies to the model and whose
+2. Which effect. Every effect of core.effects.VOCABULARY that applies to the model and whose
    signals the runs carry is added as its term (LinearModel.with_effect), its shape parameters
    chosen on the training runs by a grid search (stribeck v_s, gear_ripple order — the orders
    screened by the nominal residual's angular lines, the five strongest fitted;
@@ -72,8 +72,8 @@ from estimator.least_squares import OLSResult, ols
 from estimator.models import LinearModel, eq11, linear_model, model_from_spec
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
-from rig import effects as fx
-from rig.run import RunData
+from core import effects as fx
+from core.run import RunData
 
 OPTIONAL_SIGNALS = ("q", "qd", "qdd", "torque", "torque_load", "torque_rate", "temp_joint",
                     "torsion", "torsion_rate")

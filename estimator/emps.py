@@ -94,7 +94,7 @@ def emps_prepare(t: np.ndarray, qm: np.ndarray, force: np.ndarray, cutoff_hz: fl
 
 
 def emps_prepare_run(run) -> EmpsData:
-    """`emps_prepare` on a run loaded by rig.emps.load_emps (channels t, qm, force)."""
+    """`emps_prepare` on a run loaded by core.emps.load_emps (channels t, qm, force)."""
     return emps_prepare(run.channel("t"), run.channel("qm"), run.channel("force"))
 
 
@@ -109,7 +109,7 @@ def identify_emps(estimation, validation=None, method: str = "ls", seed: int = 0
     """Identify M, Fv, Fc, offset on the estimation record and evaluate on the validation record.
 
     `estimation` / `validation`: a path to a benchmark .mat file or a RunData from
-    rig.emps.load_emps. method 'ls' (the benchmark's IDIM-LS: standard errors
+    core.emps.load_emps. method 'ls' (the benchmark's IDIM-LS: standard errors
     std(e)·√diag((XᵀX)⁻¹) as its script computes them, 95 % t intervals) or 'exact' (conjugate
     Normal–Inverse-Gamma posterior in the scaled coordinates of estimator.priors — θ_s | τ_s² ~
     N(0, N·τ_s²·I) (prior precision 1/N of the data's: a unit-information width, so the prior
@@ -180,7 +180,7 @@ def _as_data(src) -> EmpsData:
     if isinstance(src, EmpsData):
         return src
     if isinstance(src, (str, Path)):
-        from rig.emps import load_emps
+        from core.emps import load_emps
         return emps_prepare_run(load_emps(src))
     return emps_prepare_run(src)
 

@@ -36,7 +36,7 @@ from estimator.models import LinearModel, model_from_spec
 from estimator.preprocess import PrepOptions, Signals, concat_signals, prepare
 from estimator.priors import Prior, Scaling, ZeroColumnError, inv_gamma_moment_match
 from estimator.result import Fit
-from rig.run import RunData
+from core.run import RunData
 
 LINEAR_METHODS = ("ls", "exact", "mh", "sghmc")
 SAMPLER_OPTIONS = {"mh": {"proposal_cov"},

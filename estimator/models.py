@@ -3,17 +3,17 @@ so an effect from rig.md's vocabulary can be added to any of them").
 
 A `Term` produces one or more regressor columns from prepared signals (estimator.preprocess),
 each column with its parameter name and unit; a `LinearModel` is a target y and a tuple of terms,
-y = X·θ + e. The physics comes from rig.terms and rig.effects only:
+y = X·θ + e. The physics comes from core.terms and core.effects only:
 
-- `eq4()`   Eq. 4, θ = (I_xx, mr_x, mr_y, f_v, f_c), X = rig.terms.eq4_regressor(q, q̇, q̈),
+- `eq4()`   Eq. 4, θ = (I_xx, mr_x, mr_y, f_v, f_c), X = core.terms.eq4_regressor(q, q̇, q̈),
             y = T − τ_L (the measured load; zero when the run has none).
 - `eq5()`   Eq. 5, the classical elastic joint: T = k·Δ + D·Δ̇ (+ C, a torque offset).
 - `eq11(alpha, beta, gamma, n)`  Eq. 11 with the Bouc–Wen state x known: θ = (k_u, k_h, f_v,
-            D+f_c, C), X = rig.terms.eq11_regressor(Δ, Δ̇, x), x integrated along the twist with
+            D+f_c, C), X = core.terms.eq11_regressor(Δ, Δ̇, x), x integrated along the twist with
             the shared Bouc–Wen step for the given (α, β, γ, n); y = T.
 - `linear_model(name, target, columns)`  any model from named columns (e.g. EMPS:
             force = M·q̈ + Fv·q̇ + Fc·sgn q̇ + offset).
-- `LinearModel.with_effect(name, **shape)` adds an effect of rig.effects.VOCABULARY as extra
+- `LinearModel.with_effect(name, **shape)` adds an effect of core.effects.VOCABULARY as extra
   columns: its term function evaluated at unit magnitude (the magnitude is the new parameter);
   shape parameters (e.g. Stribeck's v_s) are fixed at the given or default values. Effects whose
   magnitude enters non-linearly are linearised around zero as documented in `_effect_term`, or
@@ -27,13 +27,13 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from rig import effects as fx
-from rig.params import JointParams
-from rig.terms import eq4_regressor, eq11_regressor, smooth_sign
+from core import effects as fx
+from core.params import JointParams
+from core.terms import eq4_regressor, eq11_regressor, smooth_sign
 
 _P = JointParams()
 V_EPS = _P.v_eps
-"""Speed scale of the smoothed sign used by every friction column [rad/s] (rig.params)."""
+"""Speed scale of the smoothed sign used by every friction column [rad/s] (core.params)."""
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ def bouc_wen_x(sig: Mapping[str, np.ndarray], alpha: float, beta: float, gamma: 
                n: int = 1) -> np.ndarray:
     """Bouc–Wen state x [rad] along the twist Δ of the signals (restarted at 0 at each run's
     first sample when several runs are concatenated), integrated with the shared step."""
-    from estimator.bouc_wen_kernel import bw_state  # the compiled rig.terms.bouc_wen_step loop
+    from estimator.bouc_wen_kernel import bw_state  # the compiled core.terms.bouc_wen_step loop
     delta = np.asarray(sig["torsion"], dtype=float)
     run = np.asarray(sig["run"]) if "run" in sig else np.zeros(delta.size, dtype=int)
     x = np.empty_like(delta)
@@ -171,7 +171,7 @@ def eq11(alpha: float = _P.alpha, beta: float = _P.beta, gamma: float = _P.gamma
 def linear_model(name: str, target: str | Callable, columns: Mapping[str, tuple],
                  v_eps: float = V_EPS, target_unit: str = "") -> LinearModel:
     """A model from named columns: columns = {param: (spec, unit)} where spec is a signal name,
-    'sgn(NAME)' (the smoothed sign of rig.terms), '1' (a constant), or a callable on the
+    'sgn(NAME)' (the smoothed sign of core.terms), '1' (a constant), or a callable on the
     signals. target is a signal name or a callable."""
     terms = []
     for pname, (spec, unit) in columns.items():

@@ -40,7 +40,7 @@ from typing import Iterable
 import numpy as np
 from scipy import signal
 
-from rig.run import RunData
+from core.run import RunData
 
 DERIVED = ("qd", "qdd", "torsion", "torsion_rate", "torque_load", "torque_rate", "ud")
 

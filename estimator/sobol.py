@@ -26,7 +26,7 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 import pandas as pd
 
-from rig.terms import eq4_regressor, eq11_regressor
+from core.terms import eq4_regressor, eq11_regressor
 
 Model = Callable[[np.ndarray], np.ndarray]
 """Vectorised model: parameter rows (M, p) -> outputs (M,) or (M, T)."""

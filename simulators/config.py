@@ -2,7 +2,7 @@
 randomness and the initial conditions. Shared by the offline simulator (simulators.offline) and
 the live emulator behind the PLC/drive stand-ins (simulators.live).
 
-Every physical parameter lives in rig.params.JointParams (unit, default, source); what this file
+Every physical parameter lives in core.params.JointParams (unit, default, source); what this file
 adds is how a run is set up. The emulator-internal constants (the dynamometer's error spectrum,
 the output-angle creep threshold of the friction solver) are documented where they are defined.
 """
@@ -14,8 +14,8 @@ import math
 from dataclasses import dataclass, field, fields
 from typing import Any, Mapping, Sequence
 
-from rig.effects import VOCABULARY, resolve_effects
-from rig.params import N_MOTORS, JointParams
+from core.effects import VOCABULARY, resolve_effects
+from core.params import N_MOTORS, JointParams
 
 DYNO_ERR_PERIODS = (23.0, 71.0)
 """Periods [s] of the two sinusoids making up the dynamometer's slow tracking error (design:
@@ -29,8 +29,8 @@ DYNO_ERR_WEIGHTS = (0.7, 0.3)
 class EmulatorConfig:
     """How one emulated joint is set up (SI units, temperatures in °C).
 
-    params: the physical truth (rig.params.JointParams; defaults = rig.md).
-    effects: injected effects {name: {param: value}} from rig.effects.VOCABULARY; missing params
+    params: the physical truth (core.params.JointParams; defaults = rig.md).
+    effects: injected effects {name: {param: value}} from core.effects.VOCABULARY; missing params
         take the vocabulary's defaults. `hysteresis` here only sets its `scale` (k_h multiplier);
         switching hysteresis off is the `hysteresis` flag.
     hysteresis: True = Bouc–Wen transmission (k_u = w·k, k_h = scale·(1−w)·k); False = purely
@@ -133,5 +133,5 @@ class EmulatorConfig:
 
 
 def effect_names() -> tuple[str, ...]:
-    """The injectable effects (rig.effects.VOCABULARY order)."""
+    """The injectable effects (core.effects.VOCABULARY order)."""
     return tuple(VOCABULARY)

@@ -1,5 +1,5 @@
 """The drive stand-in: three CiA 402 drive nodes (the S120s behind their CBC10 boards) on the
-emulator's motors, built with canopen's LocalNode from rig/drives.eds.
+emulator's motors, built with canopen's LocalNode from core/drives.eds.
 
 Each node does what the drive does on the bus:
 - NMT slave with boot-up message and heartbeat producer (0x1017, changeable by SDO);
@@ -33,7 +33,7 @@ from canopen.objectdictionary import ODVariable, import_od
 from canopen.objectdictionary import datatypes as dt
 from canopen.sdo import SdoAbortedError
 
-from rig import drive_od as D
+from core import drive_od as D
 
 log = logging.getLogger(__name__)
 

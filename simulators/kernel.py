@@ -9,10 +9,10 @@ Model (rig.md, "Physics"), symbols as there: q output angle, u motor angle refer
   (f_c/v_eps ≈ 1e8 N·m·s/rad), so there the friction is integrated implicitly (backward Euler in q̇,
   safeguarded Newton); away from zero (|q̇| > 30·v_eps, where tanh is saturated) it is explicit.
 - Transmission, Bouc–Wen (Eqs. 7–9): T = D·Δ̇_s + k_u·Δ_s + k_h·x with Δ_s the twist the spring
-  sees (= Δ, or Δ through the backlash dead zone) and x advanced by rig.terms.bouc_wen_step over
+  sees (= Δ, or Δ through the backlash dead zone) and x advanced by core.terms.bouc_wen_step over
   each step's increment of Δ_s. Hysteresis off: k_u = k, k_h = 0 (purely elastic).
 - Motor side: the healthy motors' rotors turn together behind the reduction N:
-  n_rot·J_m·N²·ü = Σ_active k_t·i_k·N·η − T − b_m·N²·u̇   (rig.md; rig.terms.motor_current_share).
+  n_rot·J_m·N²·ü = Σ_active k_t·i_k·N·η − T − b_m·N²·u̇   (rig.md; core.terms.motor_current_share).
   Each drive runs a PI speed loop (output-referred gains from JointParams.speed_bw) with a current
   limit min(i_max, its torque limit / k_t) and conditional-integration anti-windup. A failed motor
   gives no torque and its holding brake takes its rotor out of the train (the differential stage
@@ -30,7 +30,7 @@ Model (rig.md, "Physics"), symbols as there: q output angle, u motor angle refer
   the value `delay` seconds (rounded to whole steps) earlier. torque_offset and the noise are added
   outside the kernel (simulators.sensors).
 
-The shared physics (rig.terms) and effect terms (rig.effects) are compiled here with numba from
+The shared physics (core.terms) and effect terms (core.effects) are compiled here with numba from
 their own Python source (`_jit`), never copied. Records are written only at the sample steps, so
 the kernel allocates nothing per step.
 """
@@ -42,9 +42,9 @@ import types
 import numba
 import numpy as np
 
-from rig import effects as fx
-from rig import terms
-from rig.params import N_MOTORS
+from core import effects as fx
+from core import terms
+from core.params import N_MOTORS
 
 
 def _jit(func, **deps):

@@ -21,7 +21,7 @@ from typing import Callable
 
 import numpy as np
 
-from rig.params import N_MOTORS
+from core.params import N_MOTORS
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 from simulators.model import setup
@@ -156,7 +156,7 @@ class LiveJoint:
     @_locked
     def read(self) -> dict[str, float]:
         """Every numeric run-format channel now, as the sensors read it (noise, quantisation,
-        injected sensor effects, dropouts as NaN); keys from rig.channels."""
+        injected sensor effects, dropouts as NaN); keys from core.channels."""
         ch = sense(self._snapshot()[None, :], self.config, self.rng)
         return {name: float(v[0]) for name, v in ch.items()}
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.params import N_MOTORS
+from core.params import N_MOTORS
 from simulators import kernel as K
 from simulators.config import DYNO_ERR_PERIODS, DYNO_ERR_WEIGHTS, EmulatorConfig
 

@@ -1,6 +1,6 @@
 """Run a whole scheme through the kernel in one call: `simulate(scheme_params, config) -> RunData`.
 
-The scheme's set-point profiles (rig.schemes) are sampled at the internal rate (1 kHz) into
+The scheme's set-point profiles (core.schemes) are sampled at the internal rate (1 kHz) into
 arrays, the kernel advances the joint over the whole run recording true values only at the sample
 instants, and the sensor models (simulators.sensors) turn those into the run-format channels.
 """
@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rig.params import N_MOTORS
-from rig.run import RunData
+from core.params import N_MOTORS
+from core.run import RunData
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 from simulators.model import setup
@@ -74,8 +74,8 @@ def simulate_records(scheme: Any, config: EmulatorConfig | None = None
 
 def simulate(scheme: Any, config: EmulatorConfig | None = None, *, started_at: str | None = None,
              notes: str = "") -> RunData:
-    """Simulate one scheme (rig.schemes.Scheme1/2/3) on the emulated joint and return the run
-    in the interchange format's columns (rig.channels) with its metadata (run-format.md plus
+    """Simulate one scheme (core.schemes.Scheme1/2/3) on the emulated joint and return the run
+    in the interchange format's columns (core.channels) with its metadata (run-format.md plus
     "emulator": seed, effects, hysteresis, non-default parameters)."""
     cfg = config or EmulatorConfig()
     rec, ch, _ = simulate_records(scheme, cfg)

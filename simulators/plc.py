@@ -1,6 +1,6 @@
 """The PLC stand-in: an S7-1500 `MB_SERVER` look-alike on Modbus TCP, backed by the emulator.
 
-- The register layout comes from rig/plc_map.py (the same map the driver reads).
+- The register layout comes from core/plc_map.py (the same map the driver reads).
 - A pymodbus 3.16 server holds one SimDevice (the current simulator API, not the deprecated
   datastore classes); its action hook refreshes the status block from the emulator on every
   read and applies the command block to the emulator on every write.
@@ -31,7 +31,7 @@ from pymodbus.pdu.register_message import (ReadHoldingRegistersRequest,
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from rig.plc_map import MAX_READ_REGISTERS, REGISTER_MAP, RegisterMap
+from core.plc_map import MAX_READ_REGISTERS, REGISTER_MAP, RegisterMap
 
 MODE_STARTUP, MODE_RUN, MODE_SAFE = 0, 1, 2
 FAULT_NONE, FAULT_WATCHDOG, FAULT_ESTOP = 0, 1, 2

@@ -2,7 +2,7 @@
 
 Honestly the same code: `python_version(f)` takes a numba dispatcher's own Python function and
 rebinds, recursively, every compiled function it calls to that function's plain Python version
-(down to the shared terms of rig.terms and rig.effects). Nothing is re-implemented; the result
+(down to the shared terms of core.terms and core.effects). Nothing is re-implemented; the result
 just runs in the interpreter instead of as machine code.
 """
 

@@ -1,10 +1,10 @@
 """Sensor models: from the kernel's true values at the sample instants to what the rig's sensors
-read (channels of rig.channels, units of run-format.md). All randomness comes from the run's
+read (channels of core.channels, units of run-format.md). All randomness comes from the run's
 numpy.random.Generator(PCG64(seed)), drawn here outside the kernel in a fixed order, so one seed
 reproduces a run bit for bit and a sensor-only effect (torque_offset, time_delay) leaves every
 other channel bit-identical.
 
-What each channel models (σ values from rig.params.JointParams):
+What each channel models (σ values from core.params.JointParams):
 - q: output encoder, rounded to its 0.01° resolution (enc_res).
 - qd: the output velocity as the drives' observer estimates it — true q̇ plus white noise
   (speed_noise). Differencing the 0.01° output encoder directly would give 0.17 rad/s steps at
@@ -28,8 +28,8 @@ import math
 
 import numpy as np
 
-from rig.effects import torque_offset
-from rig.params import N_MOTORS
+from core.effects import torque_offset
+from core.params import N_MOTORS
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 
@@ -39,7 +39,7 @@ ACCEL_WINDOW = 0.01
 SENSED = ("t", "q", "qd", "qdd", "u", "ud", "torsion", "torque", "torque_load", "torque_cmd",
           "i_m1", "i_m2", "i_m3", "w_m1", "w_m2", "w_m3", "temp_m1", "temp_m2", "temp_m3",
           "temp_joint", "p_hyd", "m_bend", "f_shear")
-"""Channels the sensor model produces, in rig.channels order (qdd only for live reads)."""
+"""Channels the sensor model produces, in core.channels order (qdd only for live reads)."""
 
 _NOISY = ("qd", "qdd", "ud", "torque", "torque_load", "i_m1", "i_m2", "i_m3", "w_m1", "w_m2",
           "w_m3", "temp_m1", "temp_m2", "temp_m3", "temp_joint", "p_hyd", "m_bend", "f_shear")

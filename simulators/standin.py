@@ -8,7 +8,7 @@ behind a socketcand-protocol server — all on loopback by default.
     rig emulate --config rig.toml                 # [emulate] table (and [emulate.emulator])
 
 It prints where it listens and stops cleanly on Ctrl-C / SIGTERM. The DAQ side reaches it with
-rig.settings.Settings (its defaults match these ports).
+daq.settings.Settings (its defaults match these ports).
 
 Pacing: one thread advances the emulator by its step dt (1 ms of rig time) until rig time
 catches up with wall time × time_scale, running the drives' 1 ms step (state machines, TPDOs)
@@ -58,7 +58,7 @@ class StandInOptions:
 
 def emulator_config(spec: dict[str, Any]):
     """EmulatorConfig from the options' `emulator` table (motor numbers 1–3 → indices)."""
-    from rig.params import JointParams
+    from core.params import JointParams
     from simulators.config import EmulatorConfig
     spec = dict(spec)
     params = JointParams().replace(**{k: float(v) for k, v in spec.pop("params", {}).items()})
@@ -109,7 +109,7 @@ class StandIn:
         self.drives.boot()
 
     async def start_plc(self) -> None:
-        from rig.plc_map import REGISTER_MAP
+        from core.plc_map import REGISTER_MAP
         from simulators.plc import PlcProgram, PlcServer
         o = self.options
         regmap = REGISTER_MAP if o.word_order == "big" else REGISTER_MAP.with_word_order(o.word_order)
@@ -247,7 +247,7 @@ def options_from_args(args: argparse.Namespace) -> StandInOptions:
     """Options: defaults ← config file [emulate] table ← command line."""
     data: dict[str, Any] = {}
     if args.config:
-        from rig.settings import read_config_file
+        from daq.settings import read_config_file
         data = read_config_file(args.config, section="emulate")
     emu = dict(data.pop("emulator", {}) or {})
     if "node_ids" in data and isinstance(data["node_ids"], str):

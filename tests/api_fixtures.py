@@ -27,7 +27,7 @@ class Api:
 
 
 def store_runs(store) -> dict[str, int]:
-    from rig.schemes import Scheme1
+    from core.schemes import Scheme1
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 

@@ -4,8 +4,8 @@ so the Modbus/CANopen layers can be tested without the physics. Not used by any 
 
 from __future__ import annotations
 
-from rig.channels import NUMERIC_CHANNELS
-from rig.params import JointParams
+from core.channels import NUMERIC_CHANNELS
+from core.params import JointParams
 
 
 class FakeLiveJoint:

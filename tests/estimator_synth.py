@@ -1,4 +1,4 @@
-"""Synthetic runs with known truth for the estimator tests (physics from rig.terms only)."""
+"""Synthetic runs with known truth for the estimator tests (physics from core.terms only)."""
 
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rig.excitation import fourier_trajectory
-from rig.params import JointParams
-from rig.run import RunData
-from rig.terms import rigid_body_torque
+from core.excitation import fourier_trajectory
+from core.params import JointParams
+from core.run import RunData
+from core.terms import rigid_body_torque
 
 P = JointParams()
 EQ4_TRUTH = np.array([P.I_xx, P.mr_x, P.mr_y, P.f_v, P.f_c])
@@ -22,7 +22,7 @@ OMEGA_F = 2 * np.pi * 0.05
 
 def eq4_run(seed: int, duration: float = 60.0, fs: float = 50.0, noise: float = 150.0,
             load: bool = True, t0: float = 0.0, theta: np.ndarray = EQ4_TRUTH) -> RunData:
-    """Scheme-3-like run: Fourier trajectory, torque from Eq. 4 (rig.terms.rigid_body_torque)
+    """Scheme-3-like run: Fourier trajectory, torque from Eq. 4 (core.terms.rigid_body_torque)
     plus a slowly varying dynamometer load, Gaussian torque noise of sd `noise` [N·m]. Channels
     t, q, qd, torque, torque_load (q̈ is left to preprocessing)."""
     rng = np.random.default_rng(seed)
@@ -43,7 +43,7 @@ def eq11_run(seed: int, duration: float = 200.0, fs: float = 20.0, noise: float 
     """A loading–unloading twist history and the Eq. 11 torque for θ = (k_u, k_h, f_v, D+f_c, C)
     with x from the shared Bouc–Wen step; channels t, q, u, torque (twist Δ = u − q)."""
     from estimator.bouc_wen_kernel import bw_state
-    from rig.terms import eq11_regressor
+    from core.terms import eq11_regressor
     if theta is None:
         theta = np.array([P.k_u, P.k_h, 300.0, P.D, 200.0])
     rng = np.random.default_rng(seed)

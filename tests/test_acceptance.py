@@ -1,4 +1,4 @@
-"""Acceptance indicators of Table 11 (rig/acceptance.py) on synthetic loading runs with known
+"""Acceptance indicators of Table 11 (core/acceptance.py) on synthetic loading runs with known
 errors."""
 
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rig.acceptance import acceptance, format_table, is_loading_run
-from rig.params import JointParams
-from rig.run import RunData
+from core.acceptance import acceptance, format_table, is_loading_run
+from core.params import JointParams
+from core.run import RunData
 
 
 def loading_run(n: int = 2000, torque_err: float = 500.0, shear_err: float = 300.0,

@@ -131,7 +131,7 @@ def test_openapi_docs_are_served(api):
 
 
 def test_cli_token_create_prints_a_working_token(api, capsys):
-    from rig.cli import main
+    from commands.cli import main
 
     assert main(["token", "create", "--role", "viewer", "--name", "cli-test",
                  "--db", api.url]) == 0

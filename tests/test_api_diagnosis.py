@@ -195,7 +195,7 @@ def test_diagnosis_job_on_imported_emps_records_with_renamed_channels(api):
     nominal model, estimation record for training, validation record held out."""
     from pathlib import Path
 
-    from rig.emps import load_emps
+    from core.emps import load_emps
     files = [Path(EMPS) / "DATA_EMPS.mat", Path(EMPS) / "DATA_EMPS_PULSES.mat"]
     if not all(f.exists() for f in files):
         pytest.skip(f"the EMPS records are not in {EMPS}")

@@ -81,7 +81,7 @@ def test_phase_aggregates_match_numpy(api):
 
 
 def test_acceptance_indicators(api):
-    from rig.acceptance import acceptance
+    from core.acceptance import acceptance
 
     rid = api.runs["fast"]
     d = _get(api, f"/runs/{rid}/acceptance")

@@ -241,14 +241,14 @@ def test_estop_mid_run_on_the_rig_aborts_with_the_estop_reason(api, monkeypatch)
         assert rig.proc.poll() is None            # the service never stops a rig it did not start
         # the rig's PLC holds the e-stop latched after the run
         st = asyncio.run(plc_status(rig.plc_port))
-        from rig.plc_map import REGISTER_MAP
+        from core.plc_map import REGISTER_MAP
         assert st["fault_code"] == 2
         assert int(st["status_bits"]) & REGISTER_MAP.signals["status_bits"].bit("estop")
 
 
 async def plc_status(port: int) -> dict:
     from daq.plc import PlcClient
-    from rig.settings import Settings
+    from daq.settings import Settings
     c = PlcClient(Settings(plc_port=port))
     await c.connect()
     try:
@@ -308,7 +308,7 @@ def test_service_killed_mid_run_its_acquisition_makes_safe_and_ends(api, tmp_pat
     env = {**os.environ, "RIG_DB_URL": api.url, "RIG_API_HOST": "127.0.0.1",
            "RIG_API_PORT": str(port)}
     log = open(tmp_path / "serve.log", "w")
-    proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "serve", "--workers", "0"],
+    proc = subprocess.Popen([sys.executable, "-m", "commands.cli", "serve", "--workers", "0"],
                             env=env, stdout=log, stderr=subprocess.STDOUT)
     base, h = f"http://127.0.0.1:{port}", api.h("operator")
     try:

@@ -34,7 +34,7 @@ def test_rig_serve_runs_a_job_end_to_end(tmp_path):
         op = create_token(store, "serve-test", ["operator"])
     port = _free_port()
     env = {**os.environ, "RIG_DB_URL": url, "RIG_API_HOST": "127.0.0.1", "RIG_API_PORT": str(port)}
-    proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "serve", "--workers", "1"],
+    proc = subprocess.Popen([sys.executable, "-m", "commands.cli", "serve", "--workers", "1"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     base = f"http://127.0.0.1:{port}"
     h = {"Authorization": f"Bearer {op}"}

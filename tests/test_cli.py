@@ -7,9 +7,9 @@ import sys
 
 import pytest
 
-from rig.cli import COMMANDS, main
-from rig.effects import EFFECT_NAMES
-from rig.params import JointParams
+from commands.cli import COMMANDS, main
+from core.effects import EFFECT_NAMES
+from core.params import JointParams
 
 
 def test_top_level_help_lists_every_command(capsys):
@@ -39,6 +39,6 @@ def test_params_json_covers_parameters_and_effects(capsys):
 
 
 def test_console_script_runs():
-    out = subprocess.run([sys.executable, "-m", "rig.cli", "params"], capture_output=True,
+    out = subprocess.run([sys.executable, "-m", "commands.cli", "params"], capture_output=True,
                          text=True, check=True).stdout
     assert "I_xx" in out and "gear_ripple" in out

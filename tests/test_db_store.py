@@ -15,7 +15,7 @@ import pytest
 from db_fixtures import db_url  # noqa: F401  (fixture)
 
 from db.store import RunNotFound, Store
-from rig.run import RunData
+from core.run import RunData
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -216,7 +216,7 @@ def test_jobs_results_reports_link_to_runs(db_url):
 
 
 def test_save_run_refuses_invalid_run_and_stores_nothing(db_url):
-    from rig.runfile import RunFileError
+    from core.runfile import RunFileError
 
     bad = RunData(samples=pd.DataFrame({"t": [0.0, 2.0, 1.0], "q": [1.0, 2.0, 3.0]}),
                   meta={"source": "rig"})

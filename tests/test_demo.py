@@ -14,7 +14,7 @@ def test_demo_quick_end_to_end(tmp_path):
     url = f"sqlite:///{tmp_path / 'demo.sqlite'}"
     env = dict(os.environ, RIG_DB_URL=url)
     report_dir = tmp_path / "reports"
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "demo", "--quick",
+    proc = subprocess.run([sys.executable, "-m", "commands.cli", "demo", "--quick",
                            "--report-dir", str(report_dir)], env=env,
                           capture_output=True, text=True, timeout=1200)
     assert proc.returncode == 0, proc.stderr[-3000:]

@@ -14,11 +14,11 @@ import pytest
 from estimator.diagnosis import DiagnosisOptions, diagnose
 from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage, mean_se,
                                        whiteness)
-from rig.run import RunData
-from rig.terms import eq4_regressor
+from core.run import RunData
+from core.terms import eq4_regressor
 
 # Magnitudes giving an effect-to-noise ratio of about 2 on the harness campaign
-# (simulators.validate_diagnosis.magnitude_for measured ENR 1 at half these values).
+# (commands.diagnosis_harness.magnitude_for measured ENR 1 at half these values).
 ENR2 = {"stribeck": {"f_s": 515.0}, "load_dependent_friction": {"mu": 0.0063},
         "temperature_friction": {"c_T": 16.0}, "gear_ripple": {"A": 435.0},
         "torque_offset": {"c0": 271.0, "drift": 0.68}, "time_delay": {"delay": 0.069}}
@@ -128,9 +128,9 @@ def test_a_diagnosis_refuses_empty_run_lists():
 
 @pytest.fixture(scope="module")
 def campaigns():
-    """Campaigns cached for the module: {label: (train, test)} (simulators.validate_diagnosis)."""
+    """Campaigns cached for the module: {label: (train, test)} (commands.diagnosis_harness)."""
     pytest.importorskip("numba")
-    from simulators.validate_diagnosis import simulate_campaign
+    from commands.diagnosis_harness import simulate_campaign
     out = {"none-1": simulate_campaign({}, 1), "none-2": simulate_campaign({}, 2)}
     for name, params in ENR2.items():
         out[name] = simulate_campaign({name: params}, 3)
@@ -183,8 +183,8 @@ def test_gear_ripple_regions_show_the_angle_and_shrinkage_is_predicted(reports):
 
 @pytest.mark.slow
 def test_cli_json_has_the_issue_keys(campaigns, tmp_path, capsys):
-    from rig.cli import main
-    from rig.runfile import write_run
+    from commands.cli import main
+    from core.runfile import write_run
     train, test = campaigns["gear_ripple"]
     paths = {"train": [], "test": []}
     for kind, runs in (("train", train), ("test", test)):
@@ -238,7 +238,7 @@ def test_transmission_model_names_hysteresis_and_skips_output_effects(campaigns)
 
 # Magnitudes at an effect-to-noise ratio of about 1 on the harness campaign (its transmission
 # ENR: contribution to the twist–torque law's residual / that law's noise, 662 N·m; measured by
-# simulators.validate_diagnosis.magnitude_for: b = 4.92e-5 rad, scale = 0.331 — 4.93e-5 on the
+# commands.diagnosis_harness.magnitude_for: b = 4.92e-5 rad, scale = 0.331 — 4.93e-5 on the
 # earlier one-direction-per-set campaign).
 TX_ENR1 = {"backlash": {"b": 4.93e-5}, "hysteresis": {"scale": 0.331}}
 
@@ -246,9 +246,9 @@ TX_ENR1 = {"backlash": {"b": 4.93e-5}, "hysteresis": {"scale": 0.331}}
 @pytest.fixture(scope="module")
 def tx_reports():
     """Backlash in the Bouc–Wen world against the Bouc–Wen law; hysteresis, and nothing, in
-    the elastic world against Eq. 5 (simulators.validate_diagnosis.world)."""
+    the elastic world against Eq. 5 (commands.diagnosis_harness.world)."""
     pytest.importorskip("numba")
-    from simulators.validate_diagnosis import ELASTIC, simulate_campaign
+    from commands.diagnosis_harness import ELASTIC, simulate_campaign
     out = {}
     for name, params in TX_ENR1.items():
         tr, te = simulate_campaign({name: params}, 5)

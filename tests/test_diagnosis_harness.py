@@ -1,4 +1,4 @@
-"""The diagnosis validation harness (simulators.validate_diagnosis): its scoring arithmetic, its
+"""The diagnosis validation harness (commands.diagnosis_harness): its scoring arithmetic, its
 report, and the out-of-vocabulary post-processing of the torque channel."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rig.run import RunData
-from simulators.validate_diagnosis import (CLASSES, apply_oov, format_report, oov_torque,
+from core.run import RunData
+from commands.diagnosis_harness import (CLASSES, apply_oov, format_report, oov_torque,
                                            score)
 
 
@@ -72,7 +72,7 @@ def _tx_cell(kind, truth, effects, law_effects, regions=(), enr=1.0, status="exp
 
 
 def test_score_has_transmission_classes_their_law_regions_and_shrinkage():
-    from simulators.validate_diagnosis import ALL_CLASSES, TRANSMISSION_CLASSES
+    from commands.diagnosis_harness import ALL_CLASSES, TRANSMISSION_CLASSES
     assert set(TRANSMISSION_CLASSES) <= set(ALL_CLASSES)
     cells = [_tx_cell("single", ["backlash"], ["backlash"], ["backlash"],
                       regions=[("reversal", "near a velocity reversal")]),
@@ -100,10 +100,10 @@ def test_transmission_law_residual_is_zero_on_the_truth_and_measures_backlash():
     leaves (almost) nothing, and a dead zone of half-width b shifts the law by ≈ k_u·b."""
     import pytest
     pytest.importorskip("numba")
-    from rig.schemes import Scheme1
+    from core.schemes import Scheme1
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate_records
-    from simulators.validate_diagnosis import _law_residual
+    from commands.diagnosis_harness import _law_residual
     b = 2e-4
     out = {}
     for label, eff in (("none", {}), ("backlash", {"backlash": {"b": b}})):
@@ -120,7 +120,7 @@ def test_campaign_sets_each_hold_both_directions_and_both_speeds_on_one_budget()
     """The harness campaign as a real test campaign runs it: 8 runs, 4 training and 4 held-out,
     the same schemes in both sets, each set with both directions and both motor speeds of the
     loading schemes, scheme 3 in the same sense in both, and equal run time in both sets."""
-    from simulators.validate_diagnosis import plans
+    from commands.diagnosis_harness import plans
     ps = plans()
     sets = {flag: [p for p in ps if p.train == flag] for flag in (True, False)}
     assert len(ps) == 8 and len(sets[True]) == len(sets[False]) == 4
@@ -143,14 +143,14 @@ def test_a_larger_but_insignificant_gain_does_not_end_the_greedy_search():
     torque offset has the largest held-out gain but is not significant (z ≈ 1.6) while the
     load-dependent friction is (z ≈ 3.1). The greedy step takes the best *significant*
     candidate; it used to stop at the insignificant one and name nothing."""
-    from simulators.validate_diagnosis import magnitude_for, run_cell
+    from commands.diagnosis_harness import magnitude_for, run_cell
     eff = {n: magnitude_for(n, 2.0) for n in ("load_dependent_friction", "torque_offset")}
     cell = run_cell(eff, 3)
     assert set(cell["effects"]) >= {"load_dependent_friction", "torque_offset"}, cell["effects"]
 
 
 def test_scoring_seeds_never_overlap_the_tuning_seeds():
-    from simulators.validate_diagnosis import NULL_TUNING_SEEDS, validate
+    from commands.diagnosis_harness import NULL_TUNING_SEEDS, validate
     for first in (0, 90, 101, 112):     # 90: 3 seeds per cell use 12 seeds for the none cells
         with pytest.raises(ValueError, match="overlap the tuning seeds"):
             validate(seeds=3, emps=False, first_seed=first)

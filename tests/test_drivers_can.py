@@ -11,8 +11,8 @@ import pytest
 
 from daq.drives import DriveError, DriveMaster
 from drivers_fake_live import FakeLiveJoint
-from rig import drive_od as D
-from rig.settings import Settings
+from core import drive_od as D
+from daq.settings import Settings
 from simulators.drives import FAULT_INJECTION, DriveStandIn
 from simulators.socketcand_server import SocketcandServer
 

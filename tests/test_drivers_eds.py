@@ -1,11 +1,11 @@
-"""The drives' EDS (rig/drives.eds) as canopen reads it: the CiA 402 objects the rig needs,
-consistent PDO mappings, and the shared state coding (rig/drive_od.py)."""
+"""The drives' EDS (core/drives.eds) as canopen reads it: the CiA 402 objects the rig needs,
+consistent PDO mappings, and the shared state coding (core/drive_od.py)."""
 
 import canopen
 import pytest
 from canopen.objectdictionary import ODVariable
 
-from rig import drive_od as D
+from core import drive_od as D
 
 
 @pytest.fixture(scope="module")

@@ -5,8 +5,8 @@ import math
 import pytest
 
 from daq.interlocks import INTERLOCKS, Interlocks
-from rig.plc_map import REGISTER_MAP
-from rig.settings import Settings
+from core.plc_map import REGISTER_MAP
+from daq.settings import Settings
 
 SB = REGISTER_MAP.signals["status_bits"]
 QUIET = {"torque": 100e3, "m_bend": 200e3, "f_shear": 80e3, "p_hyd": 20e6, "status_bits": 0}

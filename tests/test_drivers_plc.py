@@ -11,8 +11,8 @@ import pytest
 
 from daq.plc import PlcClient, PlcError, register_map_for
 from drivers_fake_live import FakeLiveJoint
-from rig.plc_map import REGISTER_MAP
-from rig.settings import Settings
+from core.plc_map import REGISTER_MAP
+from daq.settings import Settings
 from simulators.plc import MODE_RUN, MODE_SAFE, PlcProgram, PlcServer
 
 CB = REGISTER_MAP.signals["command_bits"]

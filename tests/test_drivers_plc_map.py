@@ -1,4 +1,4 @@
-"""The register map (rig/plc_map.py): layout rules, encoding and word order."""
+"""The register map (core/plc_map.py): layout rules, encoding and word order."""
 
 import math
 import struct
@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import pytest
 
-from rig.channels import CHANNELS
-from rig.plc_map import (COMMAND_BLOCK, MAX_READ_REGISTERS, MAX_WRITE_REGISTERS, REGISTER_MAP,
+from core.channels import CHANNELS
+from core.plc_map import (COMMAND_BLOCK, MAX_READ_REGISTERS, MAX_WRITE_REGISTERS, REGISTER_MAP,
                          STATUS_BLOCK, Block, RegisterMap, Signal)
 
 

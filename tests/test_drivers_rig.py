@@ -9,7 +9,7 @@ import pytest
 from daq.rig import Rig, RigSafeError
 from drivers_fake_live import FakeLiveJoint
 from drivers_harness import await_for
-from rig.settings import Settings
+from daq.settings import Settings
 from simulators.plc import PlcProgram, PlcServer
 
 

@@ -1,10 +1,10 @@
-"""The DAQ settings object (rig/settings.py): defaults, file, environment, validation."""
+"""The DAQ settings object (daq/settings.py): defaults, file, environment, validation."""
 
 import json
 
 import pytest
 
-from rig.settings import Settings, read_config_file
+from daq.settings import Settings, read_config_file
 
 
 def test_defaults_are_loopback_and_bounded():

@@ -1,5 +1,5 @@
 """`rig simulate` end to end: options become the run's configuration, the files it writes read
-back through rig.runfile (validated as run-format.md says) with the same data."""
+back through core.runfile (validated as run-format.md says) with the same data."""
 
 import json
 import subprocess
@@ -8,9 +8,9 @@ import sys
 import numpy as np
 import pytest
 
-from rig.cli import main
-from rig.runfile import read_run
-from rig.schemes import Scheme1
+from commands.cli import main
+from core.runfile import read_run
+from core.schemes import Scheme1
 from simulators.config import EmulatorConfig
 from simulators.offline import simulate
 
@@ -65,7 +65,7 @@ def test_simulate_scheme3_parquet_and_bad_options(tmp_path, capsys):
 
 def test_rig_simulate_console_command(tmp_path):
     out = tmp_path / "run.csv"
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "simulate", "2", "--speed", "3000",
+    proc = subprocess.run([sys.executable, "-m", "commands.cli", "simulate", "2", "--speed", "3000",
                            "--param", "k=2e7", "--out", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr

@@ -3,16 +3,16 @@
 Every test compares a run with the effect against the same run (same seed, so the same noise)
 without it. Channels the effect cannot touch (the dynamometer, the hydraulics, or for sensor
 effects everything but the torque channel) must be bit-identical; the change where it shows is
-checked against the effect's own term (rig.effects) evaluated on the measured channels."""
+checked against the effect's own term (core.effects) evaluated on the measured channels."""
 
 import math
 
 import numpy as np
 import pytest
 
-from rig.effects import VOCABULARY, stribeck_torque, torque_offset
-from rig.params import JointParams
-from rig.schemes import Scheme1, Scheme2, Scheme3
+from core.effects import VOCABULARY, stribeck_torque, torque_offset
+from core.params import JointParams
+from core.schemes import Scheme1, Scheme2, Scheme3
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 from simulators.offline import simulate, simulate_records

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.signal import butter, filtfilt
 
-from rig.params import RIGID_BODY_PARAMS, JointParams
-from rig.schemes import Scheme3
-from rig.terms import eq4_regressor
+from core.params import RIGID_BODY_PARAMS, JointParams
+from core.schemes import Scheme3
+from core.terms import eq4_regressor
 from simulators.config import EmulatorConfig
 from simulators.offline import simulate
 

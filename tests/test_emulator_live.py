@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from rig.channels import NUMERIC_CHANNELS
-from rig.params import JointParams
+from core.channels import NUMERIC_CHANNELS
+from core.params import JointParams
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 from simulators.live import LiveJoint

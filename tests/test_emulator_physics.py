@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.signal import butter, filtfilt
 
-from rig.channels import CHANNEL_NAMES
-from rig.params import G, JointParams
-from rig.schemes import Scheme1, Scheme2, Scheme3
-from rig.terms import motor_current_share
+from core.channels import CHANNEL_NAMES
+from core.params import G, JointParams
+from core.schemes import Scheme1, Scheme2, Scheme3
+from core.terms import motor_current_share
 from simulators import kernel as K
 from simulators import reference
 from simulators.config import EmulatorConfig

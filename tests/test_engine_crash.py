@@ -19,7 +19,7 @@ import numpy as np
 from daq.plc import PlcClient
 from db.store import Store
 from drivers_harness import REPO, SLACK_ENV, SLACK_S, SLACK_STANDIN, StandinProcess, wait_for
-from rig.settings import Settings
+from daq.settings import Settings
 
 LINE = re.compile(r"t=([\d.]+)/[\d.]+ s phase=\w+ n=(\d+) missed=(\d+)")
 
@@ -37,7 +37,7 @@ def test_kill_9_mid_run_keeps_what_was_acquired(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
     with StandinProcess(["--time-scale", "5", *SLACK_STANDIN]) as sp:
         env = run_env(sp, url)
-        proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme1",
+        proc = subprocess.Popen([sys.executable, "-m", "commands.cli", "run", "scheme1",
                                  "--speed", "3000", "--operator", "crash-test"],
                                 cwd=REPO, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, text=True)
@@ -101,7 +101,7 @@ def test_ctrl_c_aborts_the_run_and_makes_the_rig_safe(tmp_path):
     url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
     with StandinProcess(["--time-scale", "5", *SLACK_STANDIN]) as sp:
         env = run_env(sp, url)
-        proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "run", "scheme2",
+        proc = subprocess.Popen([sys.executable, "-m", "commands.cli", "run", "scheme2",
                                  "--speed", "300", "--effect", "backlash"],
                                 cwd=REPO, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, text=True)

@@ -13,7 +13,7 @@ from daq.plans import Plan
 from daq.rig import Rig
 from db.store import Store
 from drivers_fake_live import FakeLiveJoint
-from rig.settings import Settings
+from daq.settings import Settings
 from simulators.plc import PlcProgram, PlcServer
 
 SCALE = 5.0

@@ -10,9 +10,9 @@ import pytest
 
 from daq import cmd_run
 from daq.plans import Plan
-from rig.params import REDUCTION
-from rig.schemes import RPM, Scheme1, Scheme2, Scheme3
-from rig.settings import Settings
+from core.params import REDUCTION
+from core.schemes import RPM, Scheme1, Scheme2, Scheme3
+from daq.settings import Settings
 
 S3 = dict(n_periods=1, base_freq_hz=0.1, sample_rate_hz=10.0, rest_time=1.0)
 

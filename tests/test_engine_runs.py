@@ -22,7 +22,7 @@ from daq.rig import Rig
 from db.store import Store
 from db_fixtures import db_url  # noqa: F401 - fixture
 from drivers_harness import SLACK_S, SLACK_STANDIN, StandinProcess, wait_for
-from rig.settings import Settings
+from daq.settings import Settings
 
 SCALE = 5.0
 PLANS = {

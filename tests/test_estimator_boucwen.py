@@ -10,8 +10,8 @@ from estimator.bouc_wen import (BoucWenPrior, build_target, fit_bouc_wen,
                                 least_squares_fit)
 from estimator.bouc_wen_kernel import bw_state, bw_state_sensitivities
 from estimator.priors import Scaling, conjugate_prior
-from rig.params import JointParams
-from rig.terms import bouc_wen_step, eq11_regressor
+from core.params import JointParams
+from core.terms import bouc_wen_step, eq11_regressor
 
 P = JointParams()
 THETA = np.array([P.k_u, P.k_h, 300.0, P.D + P.f_c, 500.0])   # k_u, k_h, f_v, D+f_c, C
@@ -29,7 +29,7 @@ def twist_history(n_samples: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray
 
 def synthetic(n_samples: int = 1500, seed: int = 0, noise: float = 150.0, theta=THETA,
               beta=P.beta, gamma=P.gamma) -> dict:
-    """Eq. 11 torque from the shared terms (rig.terms.eq11_regressor, x from the shared step)."""
+    """Eq. 11 torque from the shared terms (core.terms.eq11_regressor, x from the shared step)."""
     rng = np.random.default_rng(seed)
     t, delta = twist_history(n_samples, seed)
     dd = np.gradient(delta, t)
@@ -314,7 +314,7 @@ def test_emulated_schemes_recover_the_bouc_wen_truth(scheme_name, rpm, rate, see
     over 6 seeds, vs 0.6–1.0 at 50 Hz) — the recursion only sees the sampled twist."""
     offline = pytest.importorskip("simulators.offline")
     from estimator.preprocess import prepare
-    from rig import schemes
+    from core import schemes
     from simulators.config import EmulatorConfig
     params = P.replace(enc_res=1e-8)
     scheme = getattr(schemes, scheme_name)(motor_speed_rpm=rpm)

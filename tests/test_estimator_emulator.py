@@ -1,6 +1,6 @@
 """Recovery of the emulator's truth: Eq. 4 identified from emulated scheme-3 runs (Fourier
-excitation, rig.schemes.Scheme3, recorded at 1 kHz) by every method, within 2 posterior sd of
-rig.params' values.
+excitation, core.schemes.Scheme3, recorded at 1 kHz) by every method, within 2 posterior sd of
+core.params' values.
 
 Preprocessing: the rows with |q̇| < 2e-4 rad/s (10·v_eps) are left out (PrepOptions.min_speed).
 Around each velocity reversal the emulated joint sticks with q̇ inside the friction's tanh band,
@@ -20,7 +20,7 @@ import pytest
 
 from estimator.identify import identify
 from estimator.preprocess import PrepOptions
-from rig.params import JointParams
+from core.params import JointParams
 
 offline = pytest.importorskip("simulators.offline")
 
@@ -30,7 +30,7 @@ TRUTH = np.array([P.I_xx, P.mr_x, P.mr_y, P.f_v, P.f_c])
 
 @pytest.fixture(scope="module")
 def scheme3_runs():
-    from rig.schemes import Scheme3
+    from core.schemes import Scheme3
     from simulators.config import EmulatorConfig
     scheme = Scheme3(n_periods=2)
     return [offline.simulate(scheme, EmulatorConfig(seed=s)) for s in (2, 4, 3)]

@@ -8,10 +8,10 @@ import pytest
 from estimator.identify import build_dataset, identify
 from estimator.models import eq4, eq5, eq11, linear_model, model_from_spec
 from estimator.preprocess import PrepOptions, concat_signals, prepare
-from rig import effects as fx
-from rig.params import JointParams
-from rig.run import RunData
-from rig.terms import eq4_regressor
+from core import effects as fx
+from core.params import JointParams
+from core.run import RunData
+from core.terms import eq4_regressor
 
 from estimator_synth import EQ4_TRUTH, eq4_run, eq11_run
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from estimator.identify import identify
-from rig.params import JointParams
+from core.params import JointParams
 
 from estimator_synth import EQ4_TRUTH, eq4_run, eq11_run
 

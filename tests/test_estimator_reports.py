@@ -81,16 +81,16 @@ def test_figures(fits, tmp_path):
 
 def _cli(argv):
     import argparse
-    from estimator.cli import add_arguments, run
+    from commands.cmd_identify import add_arguments, run
     p = argparse.ArgumentParser()
     add_arguments(p)
     return run(p.parse_args(argv))
 
 
 def test_rig_identify_command(tmp_path, capsys):
-    from rig.cli import COMMANDS
-    from rig.runfile import write_run
-    assert COMMANDS["identify"][0] == "estimator.cli"
+    from commands.cli import COMMANDS
+    from core.runfile import write_run
+    assert COMMANDS["identify"][0] == "commands.cmd_identify"
     write_run(eq4_run(8, duration=20.0), tmp_path / "train")
     write_run(eq4_run(9, duration=10.0, t0=2.0), tmp_path / "test")
     train, test = str(tmp_path / "train.csv"), str(tmp_path / "test.csv")

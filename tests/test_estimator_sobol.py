@@ -7,8 +7,8 @@ import pytest
 from estimator.sobol import (design_chunks, eq4_torque_model, eq11_bouc_wen_torque_model,
                              evaluate_chunks, sobol_analyze, sobol_design, sobol_from_fit,
                              sobol_indices)
-from rig.params import JointParams
-from rig.terms import eq4_regressor, eq11_regressor
+from core.params import JointParams
+from core.terms import eq4_regressor, eq11_regressor
 
 P = JointParams()
 

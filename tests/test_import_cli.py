@@ -1,5 +1,5 @@
 """`rig import`, `rig export`, `rig runs`, `rig show`, `rig db upgrade` end to end: commands found
-through rig.cli's registry, files on disk, a real database."""
+through commands.cli's registry, files on disk, a real database."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from db_fixtures import db_url  # noqa: F401  (fixture)
 
 from db.store import Store
 from db.writer import ChannelSpec, RunWriter
-from rig.cli import COMMANDS, main
-from rig.run import RunData
-from rig.runfile import read_run, write_run
+from commands.cli import COMMANDS, main
+from core.run import RunData
+from core.runfile import read_run, write_run
 
 EMPS = Path("/work/shared/data/emps")
 for _up in Path(__file__).resolve().parents:
@@ -25,7 +25,7 @@ for _up in Path(__file__).resolve().parents:
 
 
 def rig(*argv: str) -> int:
-    """Run `rig ARGV...` in-process through rig.cli.main."""
+    """Run `rig ARGV...` in-process through commands.cli.main."""
     assert argv[0] in COMMANDS
     return main(list(argv))
 

@@ -1,4 +1,4 @@
-"""The EMPS adapter (rig/emps.py) on the real benchmark records in ../shared/data/emps/."""
+"""The EMPS adapter (core/emps.py) on the real benchmark records in ../shared/data/emps/."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rig.emps import load_emps
-from rig.runfile import RunFileError
+from core.emps import load_emps
+from core.runfile import RunFileError
 
 EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps"
 if not EMPS.exists():

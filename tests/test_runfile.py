@@ -1,4 +1,4 @@
-"""Run interchange files (rig/runfile.py): validation as run-format.md says, lossless round trip."""
+"""Run interchange files (core/runfile.py): validation as run-format.md says, lossless round trip."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rig.run import RunData
-from rig.runfile import RunFileError, read_run, write_run
+from core.run import RunData
+from core.runfile import RunFileError, read_run, write_run
 
 META = {"scheme": 1, "motor_speed_rpm": 3000, "direction": 1, "reduction": 11000, "rig": "J4-bench",
         "source": "rig", "sample_rate_hz": 10, "started_at": "2026-11-10T09:00:00Z",

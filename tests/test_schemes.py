@@ -1,4 +1,4 @@
-"""The three schemes' plans (rig.schemes) and scheme 3's Fourier excitation (rig.excitation):
+"""The three schemes' plans (core.schemes) and scheme 3's Fourier excitation (core.excitation):
 the paper's defaults, profiles that do what rig.md says, limits respected, and an optimised
 trajectory better conditioned than random feasible ones."""
 
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from rig.excitation import (FourierTrajectory, fourier_trajectory, observation_log_cond,
+from core.excitation import (FourierTrajectory, fourier_trajectory, observation_log_cond,
                             optimize_excitation, rest_to_rest)
-from rig.params import REDUCTION
-from rig.schemes import (JOINT_LIMIT, OUTPUT_SPEED_LIMIT, RPM, Scheme1, Scheme2, Scheme3,
+from core.params import REDUCTION
+from core.schemes import (JOINT_LIMIT, OUTPUT_SPEED_LIMIT, RPM, Scheme1, Scheme2, Scheme3,
                          make_scheme)
 
 

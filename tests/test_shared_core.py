@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rig.channels import CHANNEL_NAMES
-from rig.effects import EFFECT_NAMES, VOCABULARY, resolve_effects
-from rig.params import JointParams
-from rig.terms import bouc_wen_step, eq4_regressor, rigid_body_torque, transmission_torque
+from core.channels import CHANNEL_NAMES
+from core.effects import EFFECT_NAMES, VOCABULARY, resolve_effects
+from core.params import JointParams
+from core.terms import bouc_wen_step, eq4_regressor, rigid_body_torque, transmission_torque
 
 DOCS = Path(__file__).resolve().parents[2] / "shared" / "docs"
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from drivers_harness import REPO, StandinProcess, free_port
-from rig.cli import COMMANDS
+from commands.cli import COMMANDS
 from simulators.standin import add_arguments, emulator_config, options_from_args
 
 
@@ -44,7 +44,7 @@ def test_options_and_config_file(tmp_path):
 
 
 def test_registered_in_the_rig_cli():
-    assert COMMANDS["emulate"][0] == "simulators.standin"
+    assert COMMANDS["emulate"][0] == "commands.cmd_emulate"
 
 
 def test_prints_where_it_listens_and_stops_cleanly_on_ctrl_c(tmp_path):

@@ -14,8 +14,8 @@ import pytest
 
 from daq.rig import Rig
 from drivers_harness import REPO, StandinProcess, await_for
-from rig import drive_od as D
-from rig.settings import Settings
+from core import drive_od as D
+from daq.settings import Settings
 from simulators.drives import FAULT_INJECTION
 
 

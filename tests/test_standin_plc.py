@@ -17,9 +17,9 @@ from daq.drives import DriveMaster
 from daq.plc import PlcClient
 from daq.rig import Rig
 from drivers_harness import StandinProcess, await_for, free_port
-from rig import drive_od as D
-from rig.plc_map import REGISTER_MAP
-from rig.settings import Settings
+from core import drive_od as D
+from core.plc_map import REGISTER_MAP
+from daq.settings import Settings
 
 CB = REGISTER_MAP.signals["command_bits"]
 SB = REGISTER_MAP.signals["status_bits"]

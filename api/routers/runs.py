@@ -162,7 +162,7 @@ def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
     (api/response_cache.py), keyed by the run's row (samples, pages, metadata)."""
     from api.reports import json_clean
     from api.response_cache import cache_for, run_row_key
-    from rig.acceptance import acceptance
+    from core.acceptance import acceptance
 
     info = _info(store, run_id)
 

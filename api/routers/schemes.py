@@ -17,8 +17,8 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
 from api.acquisition import (MAX_SAMPLE_RATE_TIMES_SCALE, Acquisition, AcquisitionManager,
                              Busy)
 from api.deps import ERRORS, Operator, Viewer
-from rig.effects import EFFECT_NAMES
-from rig.params import RATED_TORQUE
+from core.effects import EFFECT_NAMES
+from core.params import RATED_TORQUE
 
 
 @asynccontextmanager
@@ -79,7 +79,7 @@ PARAMS: dict[int, type[BaseModel]] = {
                     rest_time=(T, Field(2.0, description="[s]")),
                     sample_rate_hz=(float, Field(1000.0, ge=10.0, le=1000.0, description="[Hz]"))),
 }
-"""The parameters each scheme accepts (rig.schemes' fields, bounded), paper defaults."""
+"""The parameters each scheme accepts (core.schemes' fields, bounded), paper defaults."""
 
 
 class EmulatorOptions(BaseModel):
@@ -92,7 +92,7 @@ class EmulatorOptions(BaseModel):
     effects: dict[Literal[EFFECT_NAMES], dict[Annotated[str, Field(max_length=40)], float]] = \
         Field(default_factory=dict, max_length=len(EFFECT_NAMES),
               description="effects injected in the emulator {name: {param: value}} "
-                          "(rig.effects vocabulary), recorded with the run")
+                          "(core.effects vocabulary), recorded with the run")
 
 
 def _request_model(number: int) -> type[BaseModel]:
@@ -130,7 +130,7 @@ Acq = Annotated[Acquisition, Depends(_acq)]
 
 def _start(number: int, body: BaseModel, request: Request, response: Response
            ) -> dict[str, Any]:
-    from rig.schemes import make_scheme
+    from core.schemes import make_scheme
 
     params = body.params.model_dump()
     try:

@@ -36,15 +36,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def load(spec: str, db_url: str | None = None, rename: dict[str, str] | None = None):
     """A RunData from a run file path, an EMPS .mat record or a stored run id."""
-    from rig.run import RunData
+    from core.run import RunData
     if spec.isdigit():
         from db.store import Store
         run = Store(db_url).load_run(int(spec))
     elif spec.lower().endswith(".mat"):
-        from rig.emps import load_emps
+        from core.emps import load_emps
         run = load_emps(spec)
     else:
-        from rig.runfile import read_run
+        from core.runfile import read_run
         run = read_run(spec)
     if rename:
         run = RunData(samples=run.samples.rename(columns=rename), meta=dict(run.meta))

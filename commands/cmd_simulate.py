@@ -1,5 +1,5 @@
 """`rig simulate`: run one scheme on the emulated joint and write the run in the interchange
-format (rig.runfile.write_run: <stem>.csv|.parquet + <stem>.json).
+format (core.runfile.write_run: <stem>.csv|.parquet + <stem>.json).
 
 Examples:
   rig simulate scheme1 --speed 300 --direction -1 --out runs/s1_300_neg.csv
@@ -41,7 +41,7 @@ def parse_failure(text: str) -> tuple[int, float]:
 
 
 def parse_param(text: str) -> tuple[str, float]:
-    """'NAME=VALUE' for a rig.params.JointParams field."""
+    """'NAME=VALUE' for a core.params.JointParams field."""
     key, eq, value = text.partition("=")
     try:
         if not eq:
@@ -77,7 +77,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="K[@T]", help="motor K (0-2) fails at T seconds (default 0)")
     parser.add_argument("--param", action="append", type=parse_param, default=[],
                         metavar="NAME=VALUE",
-                        help="override a joint parameter of rig.params (e.g. k=2e7)")
+                        help="override a joint parameter of core.params (e.g. k=2e7)")
     parser.add_argument("--out", default=None, metavar="PATH",
                         help="output file (.csv or .parquet; a .json with the metadata is "
                              "written beside it). Default: scheme<N>_seed<S>.csv")
@@ -90,9 +90,9 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from rig.params import JointParams
-    from rig.runfile import write_run
-    from rig.schemes import make_scheme
+    from core.params import JointParams
+    from core.runfile import write_run
+    from core.schemes import make_scheme
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 

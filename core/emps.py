@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rig.run import RunData
-from rig.runfile import RunFileError, validate_meta, validate_samples
+from core.run import RunData
+from core.runfile import RunFileError, validate_meta, validate_samples
 
 CITATION = ("A. Janot, M. Gautier, M. Brunot, \"Data Set and Reference Models of EMPS\", "
             "Workshop on Nonlinear System Identification Benchmarks, 2019")

@@ -30,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="add an effect term (repeatable); same as '+NAME' in --model")
     p.add_argument("--bw", default=None, metavar="fit|known|ALPHA,BETA,GAMMA[,N]",
                    help="eq11 only: 'fit' (default) identifies the Bouc–Wen parameters; "
-                        "'known' uses rig.params' defaults; or give them explicitly")
+                        "'known' uses core.params' defaults; or give them explicitly")
     p.add_argument("--n", type=int, default=1, help="Bouc–Wen exponent n for eq9/eq11 (1)")
     p.add_argument("--chains", type=int, default=4, help="chains (4)")
     p.add_argument("--draws", type=int, default=None, help="kept draws per chain")
@@ -58,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _parse_bw(text: str | None, model: str):
     if not model.startswith("eq11") or text in (None, "fit"):
         return None
-    from rig.params import JointParams
+    from core.params import JointParams
     if text == "known":
         P = JointParams()
         return {"alpha": P.alpha, "beta": P.beta, "gamma": P.gamma, "n": P.n}
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from estimator.identify import identify_detailed
     from estimator.preprocess import PrepOptions
     from estimator.tables import report
-    from rig.runfile import RunFileError, read_run
+    from core.runfile import RunFileError, read_run
 
     methods = [m.strip() for m in args.method.split(",") if m.strip()]
     try:

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from rig.params import JointParams
-from rig.run import RunData
+from core.params import JointParams
+from core.run import RunData
 
 LOADING_PHASES = ("load", "hold", "unload")
 TORQUE_TOL = 2e3

@@ -1,5 +1,5 @@
 """The drives' CANopen object dictionary facts that both sides share: the EDS file
-(rig/drives.eds — the single source for indices, types, defaults and PDO mappings), the units
+(core/drives.eds — the single source for indices, types, defaults and PDO mappings), the units
 of its objects, and the CiA 402 state machine's statusword/controlword coding.
 
 daq/drives.py (the master) and simulators/drives.py (the drive stand-in) both read this

@@ -13,7 +13,7 @@ from typing import Mapping
 
 import numpy as np
 
-from rig.terms import smooth_sign
+from core.terms import smooth_sign
 
 
 @dataclass(frozen=True)

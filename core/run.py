@@ -14,7 +14,7 @@ import pandas as pd
 @dataclass
 class RunData:
     """`samples`: one row per sample, column `t` [s] first, other columns named as in
-    rig.channels (unknown extra columns allowed), NaN = a missing sample (dropout).
+    core.channels (unknown extra columns allowed), NaN = a missing sample (dropout).
     `meta`: the run-format metadata (scheme, motor_speed_rpm, direction, reduction, rig,
     source, sample_rate_hz, started_at, notes, ... unknown keys kept)."""
 

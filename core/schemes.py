@@ -20,8 +20,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from rig.excitation import ExcitationResult, FourierTrajectory, optimize_excitation
-from rig.params import RATED_TORQUE, REDUCTION, JointParams
+from core.excitation import ExcitationResult, FourierTrajectory, optimize_excitation
+from core.params import RATED_TORQUE, REDUCTION, JointParams
 
 RPM = 2.0 * math.pi / 60.0
 """One revolution per minute in rad/s."""
@@ -250,7 +250,7 @@ class Scheme2(_LoadingScheme):
 @dataclass(frozen=True)
 class Scheme3:
     """Scheme 3 — Fourier excitation (Eq. 12, order 5) within ±180° and the speed limit, the
-    coefficients optimised for the condition number of Eq. 4's observation matrix (rig.excitation).
+    coefficients optimised for the condition number of Eq. 4's observation matrix (core.excitation).
     No dynamometer load and no hydraulics: the run identifies the rigid-body parameters."""
     order: int = 5
     """Fourier order (5 in the paper)."""

@@ -1,5 +1,5 @@
 """`rig run scheme1|scheme2|scheme3`: run one experiment scheme against the emulator or the rig
-(the settings say which: RIG_CONFIG / RIG_* variables, see rig/settings.py) and store it in the
+(the settings say which: RIG_CONFIG / RIG_* variables, see daq/settings.py) and store it in the
 database while it runs, with a progress bar and a live line of the key channels.
 
     rig emulate --time-scale 10 &                       # or the real rig, by settings
@@ -70,7 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def scheme_params(args: argparse.Namespace, number: int) -> dict:
     """Scheme parameters given on the command line; refuses ones the scheme does not have."""
     from dataclasses import fields
-    from rig.schemes import SCHEMES
+    from core.schemes import SCHEMES
     known = {f.name for f in fields(SCHEMES[number])}
     out = {}
     for dest, (name, _, _) in SCHEME_ARGS.items():
@@ -215,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
     from daq.plans import Plan
     from daq.rig import Rig
     from db.store import Store
-    from rig.settings import Settings, read_config_file
+    from daq.settings import Settings, read_config_file
 
     number = int(args.scheme[-1])
     try:

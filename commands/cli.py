@@ -1,4 +1,4 @@
-"""The `rig` command line. Each subcommand lives in the module that owns the work and exposes
+"""The `rig` command line. Each subcommand is a module `commands/cmd_<name>.py` exposing
 `add_arguments(parser)` and `run(args) -> int`; this file only registers them, importing each
 module when its command runs so `rig --help` stays fast."""
 
@@ -10,21 +10,21 @@ import sys
 
 # name -> (module, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("rig.demo", "run the end-to-end demonstration on the embedded defaults"),
-    "run": ("daq.cmd_run", "run scheme 1, 2 or 3 against the emulator or the rig into the database"),
-    "simulate": ("simulators.cli", "simulate one scheme on the emulator and write the run file"),
-    "params": ("rig.params_cli", "list the joint parameters and effects with units and sources"),
-    "identify": ("estimator.cli", "identify a joint model from run files: LS, exact posterior, MH, SGHMC"),
-    "emulate": ("simulators.standin", "run the rig stand-in (PLC on Modbus TCP, drives on CAN) on loopback"),
-    "import": ("db.cmd_import", "import run files (CSV/Parquet + JSON, EMPS .mat) into the database"),
-    "export": ("db.cmd_export", "export a stored run as CSV or Parquet + JSON metadata"),
-    "runs": ("db.cmd_runs", "list the stored runs"),
-    "show": ("db.cmd_show", "summarise one run: channels, missing samples, acceptance indicators"),
-    "db": ("db.cmd_db", "database schema: `rig db upgrade` migrates to the newest revision"),
-    "diagnose": ("estimator.diagnose_cli", "diagnose the sim-to-real gap: where, which unmodelled effect, how far it shrinks"),
-    "validate-diagnosis": ("simulators.validate_diagnosis", "score the gap diagnosis on emulator campaigns with withheld effects"),
-    "serve": ("api.cmd_serve", "serve the REST API (runs, jobs, reports) with its job workers"),
-    "token": ("api.cmd_token", "API tokens: `rig token create --role viewer|operator|admin`"),
+    "demo": ("commands.cmd_demo", "run the end-to-end demonstration on the embedded defaults"),
+    "run": ("commands.cmd_run", "run scheme 1, 2 or 3 against the emulator or the rig into the database"),
+    "simulate": ("commands.cmd_simulate", "simulate one scheme on the emulator and write the run file"),
+    "params": ("commands.cmd_params", "list the joint parameters and effects with units and sources"),
+    "identify": ("commands.cmd_identify", "identify a joint model from run files: LS, exact posterior, MH, SGHMC"),
+    "emulate": ("commands.cmd_emulate", "run the rig stand-in (PLC on Modbus TCP, drives on CAN) on loopback"),
+    "import": ("commands.cmd_import", "import run files (CSV/Parquet + JSON, EMPS .mat) into the database"),
+    "export": ("commands.cmd_export", "export a stored run as CSV or Parquet + JSON metadata"),
+    "runs": ("commands.cmd_runs", "list the stored runs"),
+    "show": ("commands.cmd_show", "summarise one run: channels, missing samples, acceptance indicators"),
+    "db": ("commands.cmd_db", "database schema: `rig db upgrade` migrates to the newest revision"),
+    "diagnose": ("commands.cmd_diagnose", "diagnose the sim-to-real gap: where, which unmodelled effect, how far it shrinks"),
+    "validate-diagnosis": ("commands.cmd_validate_diagnosis", "score the gap diagnosis on emulator campaigns with withheld effects"),
+    "serve": ("commands.cmd_serve", "serve the REST API (runs, jobs, reports) with its job workers"),
+    "token": ("commands.cmd_token", "API tokens: `rig token create --role viewer|operator|admin`"),
 }
 
 

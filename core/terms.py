@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.params import G
+from core.params import G
 
 
 def smooth_sign(v, v_eps):

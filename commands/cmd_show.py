@@ -1,6 +1,6 @@
 """`rig show RUN`: one run's summary — status, exit status and reason, metadata, channels with
 units and missing-sample counts, phases, interruptions, and the acceptance indicators of
-Table 11 (rig/acceptance.py) for a loading run."""
+Table 11 (core/acceptance.py) for a loading run."""
 
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ def summarise(store, run_id: int) -> dict:
     import numpy as np
     import pandas as pd
 
-    from rig.acceptance import acceptance, is_loading_run
-    from rig.run import RunData
+    from core.acceptance import acceptance, is_loading_run
+    from core.run import RunData
 
     info = store.run_info(run_id)
     channels = store.channels(run_id)
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from db.store import RunNotFound, Store
-    from rig.acceptance import Indicator, format_table
+    from core.acceptance import Indicator, format_table
 
     with Store(args.db) as store:
         try:

@@ -23,8 +23,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from db.store import Store
-    from rig.emps import load_emps
-    from rig.runfile import RunFileError, read_run, run_paths
+    from core.emps import load_emps
+    from core.runfile import RunFileError, read_run, run_paths
 
     targets: list[Path] = []
     refused = 0

@@ -8,15 +8,15 @@ missing samples as empty cells).
 
 Rules applied when reading (documented here so the code and the page cannot disagree):
 - `t` is required, numeric, finite, never missing and strictly increasing.
-- Known channels other than `phase` (rig.channels) are numeric: a cell that is not a number,
+- Known channels other than `phase` (core.channels) are numeric: a cell that is not a number,
   or an infinite one, refuses the file. Empty cells (and the literal `nan`/`NaN`) are missing
   samples and stay NaN.
-- `phase` is text, one of rig.channels.PHASES, or empty (missing).
+- `phase` is text, one of core.channels.PHASES, or empty (missing).
 - Unknown columns are kept as extra channels: numeric when any non-empty cell is a number (and
   then every non-empty cell must be a finite number), text when none is.
 - Column names must be non-empty and unique.
 - Metadata must be a JSON object; the keys of run-format.md (and the acceptance set points of
-  rig.acceptance) must have the documented kind; unknown keys are kept as they are; numbers
+  core.acceptance) must have the documented kind; unknown keys are kept as they are; numbers
   must be finite. Rows are counted from 1 at the first sample (the header is not a row); for a
   CSV the line number is given too.
 """
@@ -33,8 +33,8 @@ from typing import Any, Callable
 import numpy as np
 import pandas as pd
 
-from rig.channels import CHANNELS, PHASES
-from rig.run import RunData
+from core.channels import CHANNELS, PHASES
+from core.run import RunData
 
 DATA_SUFFIXES = (".csv", ".parquet")
 MISSING_TEXT = ("", "nan", "NaN", "NAN")
@@ -125,7 +125,7 @@ META_KEYS: dict[str, Callable[[Any], str | None]] = {
     "notes": _text,
     # units of channels the format does not list (extra channels), or of another rig's record
     "units": _units,
-    # acceptance set points (rig.acceptance): hydraulic shear force [N], bending moment [N·m],
+    # acceptance set points (core.acceptance): hydraulic shear force [N], bending moment [N·m],
     # and the settling time after a dynamometer set-point step excluded from the error [s]
     "shear_setpoint_n": _number(nonneg=True),
     "bend_setpoint_nm": _number(nonneg=True),

@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from rig.effects import VOCABULARY
-from rig.params import JointParams
+from core.effects import VOCABULARY
+from core.params import JointParams
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

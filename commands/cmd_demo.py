@@ -70,8 +70,8 @@ def summarise(run) -> dict:
 
 
 def emulate_schemes(seed: int, quick: bool = False) -> list:
-    """Simulate every scheme on the emulator; returns the runs (rig.run.RunData)."""
-    from rig.schemes import Scheme1, Scheme2, Scheme3
+    """Simulate every scheme on the emulator; returns the runs (core.run.RunData)."""
+    from core.schemes import Scheme1, Scheme2, Scheme3
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 
@@ -109,7 +109,7 @@ def _print_table(rows: list[dict]) -> None:
 def redundancy_check(seed: int) -> dict:
     """Scheme 1 at 3000 r/min with motor 1 failing halfway: the other two carry the joint."""
     import numpy as np
-    from rig.schemes import Scheme1
+    from core.schemes import Scheme1
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 
@@ -154,7 +154,7 @@ def acquire_over_protocols(quick: bool) -> list:
     from daq.plans import Plan
     from daq.rig import Rig
     from db.store import Store
-    from rig.settings import Settings
+    from daq.settings import Settings
     from simulators.process import StandinProcess
 
     speeds = (3000.0,) if quick else (300.0, 3000.0)
@@ -183,7 +183,7 @@ def acquire_over_protocols(quick: bool) -> list:
 
 def print_acceptance(acquired: list) -> None:
     """One line per loading run: the worst error of each Table 11 indicator and pass/fail."""
-    from rig.acceptance import acceptance, is_loading_run
+    from core.acceptance import acceptance, is_loading_run
     print(f"{'run':>5} {'scheme':>6} {'r/min':>6} {'dir':>4}  "
           f"{'torque err kN·m':>16} {'bending err kN·m':>17} {'shear err kN':>13}  verdict")
     for rid, _, run in acquired:
@@ -200,7 +200,7 @@ def print_acceptance(acquired: list) -> None:
 
 def print_excitation() -> None:
     """Scheme 3's optimised Fourier trajectory against random feasible ones (Eq. 4's matrix)."""
-    from rig.schemes import Scheme3
+    from core.schemes import Scheme3
     ex = Scheme3().excitation()
     print(f"   scheme 3 excitation: condition number of Eq. 4's observation matrix {ex.cond:.0f} "
           f"(optimised) vs median {float(np.median(ex.random_conds)):.0f}, best "
@@ -212,7 +212,7 @@ def identify_eq4(run) -> str:
     from estimator.identify import identify
     from estimator.preprocess import PrepOptions
     from estimator.tables import parameter_table
-    from rig.params import RIGID_BODY_PARAMS, JointParams
+    from core.params import RIGID_BODY_PARAMS, JointParams
 
     # 1 kHz scheme-3 data decimated 10x (anti-aliased): the same estimates, a tenth of the work
     prep = PrepOptions(min_speed=2e-4, decimate=10)
@@ -233,7 +233,7 @@ def diagnose_hidden_effect(seed: int) -> str:
     """Simulate a training/held-out campaign with a hidden effect at effect-to-noise ratio 2,
     diagnose it blind against Eq. 4, print the verdict, then the truth."""
     from estimator.diagnosis import diagnose
-    from simulators.validate_diagnosis import magnitude_for, simulate_campaign
+    from commands.diagnosis_harness import magnitude_for, simulate_campaign
 
     hidden = HIDDEN_CANDIDATES[np.random.default_rng(seed).integers(len(HIDDEN_CANDIDATES))]
     train, test = simulate_campaign({hidden: magnitude_for(hidden, 2.0)}, seed)
@@ -359,7 +359,7 @@ def run(args: argparse.Namespace) -> int:
     print_acceptance(acquired)
     print_excitation()
 
-    print("\n== 4. Identification of Eq. 4 on the scheme-3 run (truth: rig/params.py defaults)")
+    print("\n== 4. Identification of Eq. 4 on the scheme-3 run (truth: core/params.py defaults)")
     print(identify_eq4(runs[-1]))
 
     print("\n== 5. Sim-to-real gap: a campaign on an emulated joint with one effect the nominal "

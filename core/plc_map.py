@@ -12,7 +12,7 @@ Every signal has its address (0-based holding register), type (INT = 16-bit sign
 WORD = 16-bit bit field, DINT = 32-bit signed, REAL = IEEE-754 float32), scale (SI value =
 raw value × scale), SI unit, word order of 32-bit values (S7: big-endian, high word first;
 configurable per signal for other PLCs) and whether it is a status or a command.
-A run-format channel name (rig.channels) is given where a signal is one.
+A run-format channel name (core.channels) is given where a signal is one.
 
 Missing sensor values: a REAL carries NaN; an INT/DINT carries its type's minimum
 (-32768 / -2147483648), decoded back to NaN.
@@ -25,7 +25,7 @@ import struct
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Literal, Mapping
 
-from rig.channels import CHANNELS
+from core.channels import CHANNELS
 
 MAX_READ_REGISTERS = 125
 """Modbus limit for one read holding/input registers request (FC 3/4)."""
@@ -55,7 +55,7 @@ class Signal:
     access: Literal["status", "command"]
     doc: str
     channel: str | None = None
-    """Run-format channel this signal feeds, if any (rig.channels)."""
+    """Run-format channel this signal feeds, if any (core.channels)."""
     word_order: WordOrder = "big"
     """Register order of 32-bit values: 'big' = high word first (S7), 'little' = low first."""
     bits: tuple[str, ...] = ()

@@ -79,7 +79,7 @@ Transmission effects (hysteresis, backlash) act on the twist–torque law, not o
 channel: their ENR is the RMS of their contribution to that law's residual / that law's noise.
 The contribution is measured on the emulator's true (pre-sensor) records of the same-seed runs
 with and without the effect: r = T − T_law(Δ, Δ̇, x(Δ)) with T_law the no-effect world's
-transmission law (rig.terms.transmission_torque, the Bouc–Wen state by
+transmission law (core.terms.transmission_torque, the Bouc–Wen state by
 estimator.models.bouc_wen_x), contribution = r_with − r_without. The law's noise is the torque
 noise and the output encoder's quantisation seen through the elastic stiffness,
 σ = √(torque_noise² + (k_u·enc_res)²/12) (662 N·m at rig.md's values).
@@ -95,7 +95,7 @@ measures there), never on the scoring seeds 1..n; its minimum shrinkage
 (DiagnosisOptions.transmission_min_shrinkage) on the no-effect campaigns of NULL_TUNING_SEEDS.
 `--first-seed` scores on other seeds (tuning seeds are refused).
 
-Out-of-vocabulary effects (outside rig.effects.VOCABULARY), emulated by post-processing the
+Out-of-vocabulary effects (outside core.effects.VOCABULARY), emulated by post-processing the
 torque channel of every run (documented, not physics the emulator integrates):
 - `direction_viscous`: viscous friction that differs with the direction of motion,
   c·q̇·[q̇ > 0] added to the torque (c scaled to the requested ENR);
@@ -105,7 +105,6 @@ torque channel of every run (documented, not physics the emulator integrates):
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 from typing import Any
 
@@ -123,40 +122,6 @@ NULL_TUNING_SEEDS = tuple(range(101, 113))
 (DiagnosisOptions.transmission_min_shrinkage) was set."""
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quick", action="store_true",
-                   help="fewer seeds and cells (a few minutes on 2 cores)")
-    p.add_argument("--seeds", type=int, default=None, help="seeds per cell (default 3, quick 2)")
-    p.add_argument("--first-seed", type=int, default=1,
-                   help="the scoring campaigns use seeds FIRST.. (default 1; they must not "
-                        "overlap the tuning seeds 101-112)")
-    p.add_argument("--json", action="store_true", help="print the scores as JSON")
-    p.add_argument("--no-emps", action="store_true", help="skip the EMPS records")
-    p.add_argument("--tuning", action="store_true",
-                   help="only the tuning campaigns (seeds 101-104) of the transmission law's "
-                        "threshold: print what the diagnosis measures there")
-
-
-def run(args: argparse.Namespace) -> int:
-    import json
-    if args.tuning:
-        res = tuning()
-        print(json.dumps(res, indent=2, default=float) if args.json else format_tuning(res))
-        return 0
-    try:
-        res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
-                       first_seed=args.first_seed)
-    except ValueError as exc:
-        import sys
-        print(f"rig validate-diagnosis: {exc}", file=sys.stderr)
-        return 2
-    if args.json:
-        print(json.dumps(res, indent=2, default=float))
-    else:
-        print(format_report(res))
-    return 0
-
-
 # --- campaigns ----------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -169,7 +134,7 @@ class RunPlan:
 
 def plans():
     """The campaign's runs (see the module docstring)."""
-    from rig.schemes import Scheme1, Scheme2, Scheme3
+    from core.schemes import Scheme1, Scheme2, Scheme3
     s3 = dict(n_periods=6, sample_rate_hz=50.0)
     return [
         RunPlan(Scheme1(motor_speed_rpm=300), 0, 10.0, True),
@@ -215,7 +180,7 @@ def oov_torque(run, name: str, c: float):
 
 
 def apply_oov(run, oov: dict[str, float]):
-    from rig.run import RunData
+    from core.run import RunData
     df = run.samples.copy()
     for name, c in oov.items():
         df["torque"] = df["torque"].to_numpy() + oov_torque(run, name, c)
@@ -244,7 +209,7 @@ def world(effects: dict | None) -> tuple[dict, str]:
 def _law_residual(rec, params, elastic: bool):
     """T − T_law on true records (see the module docstring) [N·m]."""
     from estimator.models import bouc_wen_x
-    from rig.terms import transmission_torque
+    from core.terms import transmission_torque
     from simulators import kernel as K
     delta = rec[:, K.R_U] - rec[:, K.R_Q]
     dd = rec[:, K.R_UD] - rec[:, K.R_QD]
@@ -259,7 +224,7 @@ def _law_residual(rec, params, elastic: bool):
 def transmission_noise() -> float:
     """Noise sd of the twist–torque law [N·m]: √(torque_noise² + (k_u·enc_res)²/12)."""
     import math
-    from rig.params import JointParams
+    from core.params import JointParams
     p = JointParams()
     return math.sqrt(p.torque_noise ** 2 + (p.k_u * p.enc_res) ** 2 / 12.0)
 
@@ -286,7 +251,7 @@ def transmission_enr(effects: dict, seed: int) -> float:
 def effect_to_noise(effects: dict | None, seed: int, oov: dict | None = None) -> float:
     """Measured ENR of a campaign (see the module docstring)."""
     import numpy as np
-    from rig.params import JointParams
+    from core.params import JointParams
     if effects and set(effects) & set(TRANSMISSION_CLASSES):
         return transmission_enr(effects, seed)
     base_tr, base_te = simulate_campaign(None, seed)
@@ -303,7 +268,7 @@ _UNIT_ENR: dict[str, float] = {}
 def magnitude_for(name: str, enr: float) -> dict[str, float]:
     """Effect parameters giving the requested ENR (magnitude scaled linearly from the ENR
     measured at the default magnitude, seed 0)."""
-    from rig.effects import VOCABULARY
+    from core.effects import VOCABULARY
     if name in OOV_EFFECTS:
         unit = {"direction_viscous": 1e4, "position_stiffness": 1e4}[name]
         if name not in _UNIT_ENR:
@@ -609,8 +574,8 @@ def run_emps() -> dict | None:
     from pathlib import Path
     from estimator.diagnosis import diagnose
     from estimator.preprocess import PrepOptions
-    from rig.emps import load_emps
-    from rig.run import RunData
+    from core.emps import load_emps
+    from core.run import RunData
     root = Path("/work/shared/data/emps")
     files = [root / "DATA_EMPS.mat", root / "DATA_EMPS_PULSES.mat"]
     if not all(f.exists() for f in files):

@@ -7,10 +7,10 @@ Eq. 12, for harmonics l = 1..L at base angular frequency ω_f:
     q̈(t)  = Σ −a_l·ω_f·l·sin(ω_f·l·t) + b_l·ω_f·l·cos(ω_f·l·t)
 
 The coefficients minimise the log condition number of Eq. 4's observation matrix
-(rig.terms.eq4_regressor) over one period, under |q| ≤ q_max, |q̇| ≤ v_max, |q̈| ≤ a_max. We also
+(core.terms.eq4_regressor) over one period, under |q| ≤ q_max, |q̇| ≤ v_max, |q̈| ≤ a_max. We also
 impose a rest-to-rest start (q(0) = q_start, q̇(0) = 0, q̈(0) = 0: a_1 = −Σ_{l≥2} a_l,
 b_1 = −Σ_{l≥2} l·b_l, q_0 from q(0)), so the joint can enter and leave the periodic trajectory
-without a jolt. Pure computation (numpy/scipy, rig.terms); no simulator import.
+without a jolt. Pure computation (numpy/scipy, core.terms); no simulator import.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from rig.params import JointParams
-from rig.terms import eq4_regressor
+from core.params import JointParams
+from core.terms import eq4_regressor
 
 
 @dataclass(frozen=True)

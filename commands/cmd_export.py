@@ -21,9 +21,9 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from db.store import RunNotFound, Store
-    from rig.channels import unit_of
-    from rig.run import RunData
-    from rig.runfile import write_run
+    from core.channels import unit_of
+    from core.run import RunData
+    from core.runfile import write_run
 
     with Store(args.db) as store:
         try:

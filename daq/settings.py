@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Mapping
 
-from rig.params import RATED_TORQUE
+from core.params import RATED_TORQUE
 
 CAN_INTERFACES = ("socketcand", "virtual", "socketcan", "udp_multicast")
 """python-can interfaces the DAQ accepts. udp_multicast is always opened with hop_limit=0

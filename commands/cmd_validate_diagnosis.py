@@ -1,0 +1,42 @@
+"""`rig validate-diagnosis`: the gap diagnosis scored blind on emulated campaigns with withheld
+effects (the campaigns and the scoring live in commands.diagnosis_harness)."""
+
+from __future__ import annotations
+
+import argparse
+
+from commands.diagnosis_harness import format_report, format_tuning, tuning, validate
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quick", action="store_true",
+                   help="fewer seeds and cells (a few minutes on 2 cores)")
+    p.add_argument("--seeds", type=int, default=None, help="seeds per cell (default 3, quick 2)")
+    p.add_argument("--first-seed", type=int, default=1,
+                   help="the scoring campaigns use seeds FIRST.. (default 1; they must not "
+                        "overlap the tuning seeds 101-112)")
+    p.add_argument("--json", action="store_true", help="print the scores as JSON")
+    p.add_argument("--no-emps", action="store_true", help="skip the EMPS records")
+    p.add_argument("--tuning", action="store_true",
+                   help="only the tuning campaigns (seeds 101-104) of the transmission law's "
+                        "threshold: print what the diagnosis measures there")
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+    if args.tuning:
+        res = tuning()
+        print(json.dumps(res, indent=2, default=float) if args.json else format_tuning(res))
+        return 0
+    try:
+        res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
+                       first_seed=args.first_seed)
+    except ValueError as exc:
+        import sys
+        print(f"rig validate-diagnosis: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(res, indent=2, default=float))
+    else:
+        print(format_report(res))
+    return 0
