@@ -233,7 +233,7 @@ def diagnosis_html(d: dict[str, Any], plots: dict[str, bytes]) -> str:
     v = d["verdict"]
     status = v["status"]
     effects = " + ".join(v.get("effects") or [])
-    cls = {"explained": "pass", "unexplained": "fail"}.get(status, "")
+    cls = {"explained": "pass", "partly_explained": "warn", "unexplained": "fail"}.get(status, "")
     parts = ["<section id=\"sim-to-real-gap\"><h2>Sim-to-real gap</h2>",
              f"<h3 class=\"{cls}\">Verdict: {_e(status)}"
              + (f" — {_e(effects)}" if effects else "") + "</h3>"]
@@ -279,7 +279,7 @@ def _law_html(d: dict[str, Any], plots: dict[str, bytes], prefix: str,
         "shrinkage predicted from training": _pct(sh.get("predicted_from_training")),
         "structured share removed": _pct(v.get("structured_share_removed")),
     }
-    cls = {"explained": "pass", "unexplained": "fail"}.get(lv.get("status"), "")
+    cls = {"explained": "pass", "partly_explained": "warn", "unexplained": "fail"}.get(lv.get("status"), "")
     nothing = "nothing structured"
     reasons_before = ", ".join(d.get("tests", {}).get("reasons") or []) or nothing
     reasons_after = ", ".join(v.get("residual_after", {}).get("reasons") or []) or nothing

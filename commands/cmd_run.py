@@ -215,7 +215,8 @@ def run(args: argparse.Namespace) -> int:
     from daq.plans import Plan
     from daq.rig import Rig
     from db.store import Store
-    from daq.settings import Settings, read_config_file
+    from core.config_file import read_config_file
+    from daq.settings import Settings
 
     number = int(args.scheme[-1])
     try:

@@ -81,6 +81,13 @@ VOCABULARY: dict[str, Effect] = {e.name: e for e in (
     Effect("time_delay", "a channel lagging the others",
            "fast changes, reversals", "sensor", "delay",
            (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel"),)),
+    Effect("asymmetric_friction", "Coulomb level and viscous slope that differ with the direction "
+           "of motion", "positive vs negative speeds; the EMPS drive's known gap", "output", "d_v",
+           (EffectParam("d_v", 8000.0, "N·m·s/rad",
+                        "extra viscous slope in the positive direction"),
+            EffectParam("d_c", 0.0, "N·m", "extra Coulomb friction in the positive direction "
+                        "(against Eq. 4's Coulomb term it acts as a constant torque, which a "
+                        "diagnosis cannot tell from a torque offset)"))),
 )}
 
 EFFECT_NAMES: tuple[str, ...] = tuple(VOCABULARY)
@@ -123,6 +130,12 @@ def backlash_twist(delta, b):
 def gear_ripple_torque(q, A, order, phase):
     """Gear-mesh ripple [N·m]: A·sin(order·q + phase), `order` cycles per output revolution."""
     return A * np.sin(order * q + phase)
+
+
+def asymmetric_friction_torque(qd, d_c, d_v, v_eps):
+    """Friction that differs with the direction of motion [N·m]: (d_c + d_v·q̇)·(1 + sgn q̇)/2,
+    i.e. the positive direction has Coulomb level f_c + d_c and viscous slope f_v + d_v."""
+    return (d_c + d_v * qd) * 0.5 * (1.0 + smooth_sign(qd, v_eps))
 
 
 def torque_offset(t, c0, drift):

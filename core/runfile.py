@@ -113,6 +113,26 @@ def _units(v: Any) -> str | None:
     return f"expected an object of channel name -> unit text, got {v!r}"
 
 
+SENSOR_KEYS = {"resolution": "the channel's quantisation step, in the channel's unit",
+               "noise_sd": "standard deviation of the channel's measurement noise, channel unit",
+               "lag_s": "how far the channel lags the others [s]"}
+"""What a run may say of each channel's sensor (metadata key `sensors`, docs/run-format.md)."""
+
+
+def _sensors(v: Any) -> str | None:
+    if not isinstance(v, dict):
+        return "must be an object {channel: {resolution, noise_sd, lag_s}}"
+    for ch, spec in v.items():
+        if not isinstance(spec, dict):
+            return f"sensors[{ch!r}] must be an object with keys among {sorted(SENSOR_KEYS)}"
+        for k, x in spec.items():
+            if k not in SENSOR_KEYS:
+                return f"sensors[{ch!r}] has unknown key {k!r}; known: {sorted(SENSOR_KEYS)}"
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or x < 0:
+                return f"sensors[{ch!r}][{k!r}] must be a number >= 0, got {x!r}"
+    return None
+
+
 META_KEYS: dict[str, Callable[[Any], str | None]] = {
     "scheme": _scheme,
     "motor_speed_rpm": _number(nonneg=True),
@@ -130,6 +150,8 @@ META_KEYS: dict[str, Callable[[Any], str | None]] = {
     "shear_setpoint_n": _number(nonneg=True),
     "bend_setpoint_nm": _number(nonneg=True),
     "acceptance_settle_s": _number(nonneg=True),
+    # what each channel's sensor resolves and how noisy it is (docs/run-format.md)
+    "sensors": _sensors,
 }
 """Known metadata keys and their checks; null is allowed for every key (e.g. the speed of a
 scheme-3 run, or the scheme of a record from another rig). Unknown keys are kept unchecked."""

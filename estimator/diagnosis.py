@@ -60,15 +60,21 @@ Estimator code: imports rig/ and estimator/ only.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
-from estimator.diagnosis_regions import RegionOptions, label_regions, region_table
+from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
+                                            _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
+                                            _score, bouc_wen_grid, predicted_shrinkage,
+                                            run_consistency)
+from estimator.diagnosis_options import DiagnosisOptions
+from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage,
-                                       cross_correlation, mean_se, spectral_line, whiteness)
-from estimator.least_squares import OLSResult, ols
+                                       cross_correlation, spectral_line, whiteness)
+from estimator.diagnosis_verdict import merge_transmission
+from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, linear_model, model_from_spec
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
@@ -78,86 +84,6 @@ from core.run import RunData
 OPTIONAL_SIGNALS = ("q", "qd", "qdd", "torque", "torque_load", "torque_rate", "temp_joint",
                     "torsion", "torsion_rate")
 """Signals prepared when a run can supply them (regions and candidate terms use them)."""
-
-
-@dataclass(frozen=True)
-class DiagnosisOptions:
-    z_gain: float = 3.0
-    """Held-out gain / SE needed to call a candidate significant."""
-    min_shrinkage: float = 0.005
-    """Smallest held-out RMSE shrinkage that counts (1 − after/before)."""
-    max_effects: int = 3
-    explained_fraction: float = 0.8
-    """Share of the structured residual mean square the chosen effects must remove."""
-    min_structured: float = 0.05
-    """With no effect chosen, the residual is called structured (`unexplained`) only when the
-    tests flag it and its part above the white-noise floor is at least this share of its mean
-    square (a materiality threshold: with thousands of samples the tests flag tiny leftovers,
-    e.g. the emulator's stick–slip near zero speed that Eq. 4's smooth sign does not model)."""
-    block: int | None = None
-    """Samples per batch-means block; None: max(10, √n per run)."""
-    ripple_orders: tuple[int, ...] = tuple(range(2, 121))
-    stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
-    """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
-    backlash_b_rel: tuple[float, ...] = (0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.13)
-    """Backlash dead-zone half-widths b searched, as fractions of the training runs' top |Δ|
-    (99th percentile of the twist)."""
-    bw_yield_rel: tuple[float, ...] = (0.01, 0.02, 0.04, 0.07, 0.12, 0.2, 0.35)
-    """Bouc–Wen yield twists α/(β+γ) searched (α = 1, n = 1; only α·k_h is identifiable), as
-    fractions of the training runs' top |Δ| — for the nominal Bouc–Wen law and for the
-    hysteresis candidate of an elastic law."""
-    lines_veto: bool = True
-    """A spectral line left in the residual (in time or in output angle) keeps the verdict from
-    `explained`."""
-    transmission_min_structured: float = 0.75
-    """min_structured of the twist–torque law (no line veto there). Its residual after
-    decimation is never white on a rig whose twist comes from a 0.01° output encoder: held
-    stretches keep a constant quantisation error and scheme 3's periodic trajectory makes any
-    small mismatch a line. The value was first picked after a development look at two no-effect
-    campaigns (seeds 1–2: shares 0.60, 0.66), then checked on the harness's tuning seeds
-    (101–104, `rig validate-diagnosis --tuning`): with nothing injected the law's share above
-    the first-difference floor measured 0.45–0.66, after the right effect at ENR 0.5
-    0.26–0.60; re-checked after the harness's campaign got both directions in training and
-    held-out runs: 0.49–0.69 with nothing injected, 0.31–0.63 after the right effect."""
-    transmission_min_shrinkage: float = 0.04
-    """min_shrinkage of the twist–torque law (a materiality threshold). The output encoder's
-    step (0.01° on the J4 rig) makes a law with nothing missing look slightly hysteretic or
-    backlash-like: on the harness's tuning seeds 101–112 with nothing injected, the best
-    transmission candidate shrank the held-out error by 0.010–0.022 (hysteresis on an elastic
-    law) and 0.016–0.026 (backlash on a Bouc–Wen law), with z up to 3.7 — beyond z_gain in 4 of
-    24 campaigns; with a transmission effect at ENR 0.5 the right candidate shrank it by
-    0.053–0.073 (backlash) and ~0.30 (hysteresis). 0.04 lies between. Set after a scoring run of
-    the 6-period campaign had named hysteresis in 3 of 6 no-effect campaigns (shrinkage
-    0.017–0.022): the figures were then re-scored on fresh seeds (see simulators/
-    validate_diagnosis.py)."""
-    predictor: str = "noise_level"
-    """How the held-out shrinkage is predicted from the training runs: 'noise_level' or
-    'training_ratio' (see _predicted)."""
-    transmission_predictor: str = "training_ratio"
-    """predictor of the twist–torque law. Chosen on the harness's tuning seeds (101–104; backlash
-    and hysteresis at ENR 0.5, 1, 2): on the earlier campaign whose held-out runs were all in the
-    reversed direction, |predicted − realised| ≤ 0.05 in 83 % of the cells with 'training_ratio'
-    (median 0.035) vs 57 % with 'noise_level' (median 0.042) — those held-out runs carried
-    another quantisation noise level than the training runs; on the campaign with both
-    directions in both sets, 22 of 22 cells with either (median 0.013)."""
-    transmission_decimate: int = 5
-    """The twist–torque law is diagnosed on runs low-passed and decimated by this factor
-    (estimator.preprocess: every channel filtered at 0.8 × the new Nyquist frequency): the
-    twist is the difference of two encoders and the output one's step (0.01° on the J4 rig,
-    ≈ 2.8 kN·m through the stiffness) jitters between samples; along the jittering twist the
-    Bouc–Wen state runs spurious small loops. Filtering and decimating averages the steps out
-    and keeps the residual's noise close to white at the lower rate."""
-    bw_beta_share: tuple[float, ...] = (0.3, 0.6, 0.9)
-    """β/(β+γ) searched with each yield twist (sets the unloading branch's shape)."""
-    candidates: tuple[str, ...] | None = None
-    """Effects to try (default: the whole vocabulary, those applicable)."""
-    regions: RegionOptions = field(default_factory=RegionOptions)
-    n_boot: int = 400
-    seed: int = 0
-    series_points: int = 0
-    """With > 0, the report carries `series`: at most this many samples per run (evenly
-    decimated) of the measured target, the nominal and the final model's predictions and the
-    flagged regions' members, for plots (api reports); 0: no series."""
 
 
 def emps_model() -> LinearModel:
@@ -248,183 +174,6 @@ def _slice(d: dict, m: np.ndarray) -> dict:
 
 # --- candidates ---------------------------------------------------------------------------------
 
-def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray) -> list[dict]:
-    if name == "stribeck":
-        top = float(np.quantile(np.abs(sig["qd"]), 0.99)) or 1.0
-        return [{"v_s": r * top} for r in opt.stribeck_vs_rel]
-    if name == "gear_ripple":
-        # screen the orders by the nominal residual's angular lines, fit the five strongest
-        top = angle_lines(e_train, sig["q"], np.asarray(opt.ripple_orders)).get("top_orders")
-        return [{"order": float(k)} for k in (top or opt.ripple_orders)]
-    if name == "backlash":
-        # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)
-        top = float(np.quantile(np.abs(sig["torsion"]), 0.99)) or 1e-3
-        return [{"b": r * top} for r in opt.backlash_b_rel]
-    if name == "hysteresis":
-        return bouc_wen_grid(sig, opt)
-    return [{}]
-
-
-def bouc_wen_grid(sig: dict, opt: DiagnosisOptions) -> list[dict]:
-    """Bouc–Wen shapes (α = 1, n = 1, β, γ) to search, scaled by the training twist: yield
-    twist 1/(β+γ) = a fraction of the 99th percentile of |Δ| (opt.bw_yield_rel), β/(β+γ) from
-    opt.bw_beta_share. From the data, never from the emulator's parameter values."""
-    top = float(np.quantile(np.abs(sig["torsion"]), 0.99)) or 1e-3
-    out = []
-    for r in opt.bw_yield_rel:
-        ssum = 1.0 / (r * top)
-        for share in opt.bw_beta_share:
-            out.append({"alpha": 1.0, "beta": share * ssum, "gamma": (1.0 - share) * ssum,
-                        "n": 1})
-    return out
-
-
-def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
-                      ) -> tuple[dict[str, list[tuple[dict, LinearModel]]], dict[str, str]]:
-    names = opt.candidates or fx.EFFECT_NAMES
-    out, skipped = {}, {}
-    for name in names:
-        if name in model.effects:
-            continue
-        acts = fx.VOCABULARY[name].acts_on if name in fx.VOCABULARY else "?"
-        if model.kind == "transmission" and acts == "output":
-            skipped[name] = "acts on the output-side balance, not on the transmission law"
-            continue
-        try:
-            grid = _shape_grid(name, sig, opt, e_train)
-            models = [(shape, model.with_effect(name, **shape)) for shape in grid]
-            models[0][1].design({k: v[:8] for k, v in sig.items()})
-        except KeyError as exc:
-            skipped[name] = f"the runs lack signal {exc}"
-            continue
-        except ValueError as exc:
-            skipped[name] = str(exc)
-            continue
-        out[name] = models
-    return out, skipped
-
-
-@dataclass
-class _Fit:
-    model: LinearModel
-    shape: dict
-    theta: np.ndarray
-    se: np.ndarray
-    cov: np.ndarray
-    e_train: np.ndarray
-    e_test: np.ndarray
-    rmse_train_dof: float
-    ols: OLSResult | None = None
-
-
-def _fit(model: LinearModel, shape: dict, tr: dict, te: dict) -> _Fit:
-    X, y = model.design(tr), model.target(tr)
-    res = ols(X, y)
-    e_tr = y - X @ res.theta
-    e_te = model.target(te) - model.design(te) @ res.theta
-    return _Fit(model, shape, res.theta, res.se, res.cov, e_tr, e_te,
-                float(np.sqrt(res.rss / max(res.dof, 1))), res)
-
-
-def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _Fit:
-    best, best_rss = None, np.inf
-    for shape, m in models:
-        X, y = m.design(tr), m.target(tr)
-        res = ols(X, y)
-        if res.rss < best_rss:
-            best, best_rss = (shape, m), res.rss
-    return _fit(best[1], best[0], tr, te)
-
-
-def _loro_errors(model: LinearModel, tr: dict) -> np.ndarray:
-    """Leave-one-run-out errors on the training runs: each training run predicted by the model
-    fitted on the other training runs (one run alone: its in-sample errors, dof-corrected)."""
-    X, y = model.design(tr), model.target(tr)
-    run = tr["run"]
-    runs = np.unique(run)
-    if runs.size < 2:
-        res = ols(X, y)
-        return (y - X @ res.theta) * np.sqrt(X.shape[0] / max(res.dof, 1))
-    e = np.empty_like(y)
-    for r in runs:
-        m = run == r
-        res = ols(X[~m], y[~m])
-        e[m] = y[m] - X[m] @ res.theta
-    return e
-
-
-def predicted_shrinkage(cur: LinearModel, new: LinearModel, tr: dict) -> float:
-    """Shrinkage predicted from the training runs alone: 1 − rmse_new/rmse_cur of the
-    leave-one-run-out errors (each run predicted as a held-out run would be)."""
-    r0, r1 = _rmse(_loro_errors(cur, tr)), _rmse(_loro_errors(new, tr))
-    return 1.0 - r1 / r0 if r0 > 0 else 0.0
-
-
-def _rmse(e: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
-
-
-def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
-           tr: dict | None = None) -> dict:
-    d = cur.e_test ** 2 - new.e_test ** 2
-    gain, se = mean_se(d, te_blocks)
-    r0, r1 = _rmse(cur.e_test), _rmse(new.e_test)
-    shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
-    z = gain / se if np.isfinite(se) and se > 0 else 0.0
-    return {"rmse_test": r1, "shrinkage": shrink,
-            "shrinkage_predicted": _predicted(cur, new, r0, opt),
-            "shrinkage_loro": (predicted_shrinkage(cur.model, new.model, tr) if tr is not None
-                               else None),
-            "gain": float(gain), "gain_se": float(se), "z": float(z),
-            "significant": bool(z > opt.z_gain and shrink >= opt.min_shrinkage)}
-
-
-def _predicted(cur: _Fit, new: _Fit, rmse_before_test: float, opt: DiagnosisOptions) -> float:
-    """Held-out shrinkage predicted from the training runs (opt.predictor):
-    'noise_level' 1 − σ̂_new/rmse_before (σ̂ the new model's dof-corrected training residual sd,
-    rmse_before the current model's held-out RMSE: the held-out error falls to the training
-    noise level); 'training_ratio' 1 − σ̂_new/σ̂_cur (the held-out error shrinks as the training
-    error does — robust when training and held-out runs differ in noise level)."""
-    if opt.predictor == "training_ratio":
-        return 1.0 - new.rmse_train_dof / cur.rmse_train_dof if cur.rmse_train_dof > 0 else 0.0
-    return 1.0 - new.rmse_train_dof / rmse_before_test if rmse_before_test > 0 else 0.0
-
-
-def _effect_params(f: _Fit, n_base: int) -> dict:
-    names = f.model.param_names[n_base:]
-    units = f.model.units[n_base:]
-    return {n: {"value": float(v), "se": float(s), "unit": u}
-            for n, v, s, u in zip(names, f.theta[n_base:], f.se[n_base:], units)}
-
-
-def _moved(base: _Fit, f: _Fit, n_base: int) -> tuple[dict, list[str]]:
-    moved, aliases = {}, []
-    sd = np.sqrt(np.clip(np.diag(f.cov), 0, np.inf))
-    for j, name in enumerate(base.model.param_names[:n_base]):
-        shift = (f.theta[j] - base.theta[j]) / base.se[j] if base.se[j] > 0 else 0.0
-        moved[name] = {"before": float(base.theta[j]), "after": float(f.theta[j]),
-                       "se_before": float(base.se[j]), "se_after": float(f.se[j]),
-                       "shift_in_se": float(shift), "unit": base.model.units[j]}
-        rho = 0.0
-        for k in range(n_base, f.theta.size):
-            if sd[j] > 0 and sd[k] > 0 and np.isfinite(f.cov[j, k]):
-                rho = max(rho, abs(f.cov[j, k] / (sd[j] * sd[k])))
-        if abs(shift) > 3 and rho > 0.9:
-            aliases.append(name)
-    return moved, aliases
-
-
-def _contribution(base: _Fit, f: _Fit, tr: dict) -> np.ndarray:
-    """The candidate's fitted contribution on the training runs, orthogonalised against the
-    nominal columns."""
-    n_base = base.theta.size
-    X = f.model.design(tr)
-    c = X[:, n_base:] @ f.theta[n_base:]
-    Xb = X[:, :n_base]
-    coef, *_ = np.linalg.lstsq(Xb, c, rcond=None)
-    return c - Xb @ coef
-
-
 # --- residual structure -------------------------------------------------------------------------
 
 def _structure(e: np.ndarray, pooled: dict, blocks: np.ndarray, angle_order: int | None,
@@ -453,6 +202,29 @@ def _structure(e: np.ndarray, pooled: dict, blocks: np.ndarray, angle_order: int
     return {"regions": regions, "whiteness": white, "cross_correlation": xc,
             "spectral_line": line, "angle_line": ang, "structured": bool(reasons),
             "reasons": reasons}
+
+
+def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, float]
+                 ) -> float | None:
+    """The mean square the law's residual must keep from the sensors alone, from what the runs
+    say of them (metadata `sensors`, docs/run-format.md), or None when a run says nothing: the
+    torque channel's noise variance, plus for a twist–torque law each encoder's quantisation
+    seen through the fitted stiffness, (k·step)²/12 per encoder (k the law's elastic stiffness
+    k_u or k). The quantisation error of a slowly moving encoder is not white, so the
+    first-difference floor misses it; it is the floor a twist–torque law cannot go below."""
+    total = []
+    for run in runs:
+        sensors = run.meta.get("sensors")
+        if not isinstance(sensors, dict) or "torque" not in sensors:
+            return None
+        ms = float(sensors["torque"].get("noise_sd", 0.0)) ** 2
+        if model.kind == "transmission":
+            k = abs(float(params.get("k_u", params.get("k", 0.0))))
+            for ch in ("q", "u"):
+                step = float((sensors.get(ch) or {}).get("resolution", 0.0))
+                ms += (k * step) ** 2 / 12.0
+        total.append(ms)
+    return float(np.mean(total)) if total else None
 
 
 def _noise_floor(e: np.ndarray, run: np.ndarray) -> float:
@@ -584,7 +356,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     # greedy addition while the held-out gain stays significant: every round re-fits every
     # remaining candidate on top of the current model (its shape searched again: the first
     # round's search saw the other effects' residual too) and re-scores it against that model
-    chosen, steps, cur = [], [], base_fit
+    chosen, steps, cur, rejected = [], [], base_fit, []
     remaining = list(fits)
     first = True
     while remaining and len(chosen) < opt.max_effects:
@@ -600,10 +372,24 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
             break
         # the largest held-out gain among the significant candidates (a larger gain that is not
         # significant is noise, and must not end the search before a significant one is added)
-        significant = [n for n in scored if scored[n]["significant"]]
-        if not significant:
+        significant = sorted((n for n in scored if scored[n]["significant"]),
+                             key=lambda n: -scored[n]["gain"])
+        # parsimony: an effect beyond the first must also help consistently across the runs
+        # (held-out, and training runs left out one at a time): a one-sided signed-rank test of
+        # its per-run gains at opt.parsimony_alpha
+        best = None
+        for n in significant:
+            if not chosen:
+                best = n
+                break
+            cons = run_consistency(cur, trial[n], tr, te)
+            scored[n].update(cons)
+            if cons["p_runs"] < opt.parsimony_alpha:
+                best = n
+                break
+            rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
+        if best is None:
             break
-        best = max(significant, key=lambda n: scored[n]["gain"])
         steps.append({"effect": best, "shape": trial[best].shape, **scored[best]})
         chosen.append(best)
         cur = trial[best]
@@ -612,7 +398,10 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     e_fin = np.empty_like(e_all)
     e_fin[is_train], e_fin[~is_train] = cur.e_train, cur.e_test
     after = _structure(e_fin, pooled, blocks, angle_order, opt) if chosen else where
-    floor = _noise_floor(e_all[~is_train], pooled["run"][~is_train])
+    floor_white = _noise_floor(e_all[~is_train], pooled["run"][~is_train])
+    floor_sensor = sensor_floor(list(test_runs), model, dict(zip(model.param_names,
+                                                                 base_fit.theta)))
+    floor = max(floor_white, floor_sensor or 0.0)
     ms0, ms1 = float(np.mean(base_fit.e_test ** 2)), float(np.mean(cur.e_test ** 2))
     structured_ms = max(ms0 - floor, 0.0)
     removed = (ms0 - ms1) / structured_ms if structured_ms > 0 else 0.0
@@ -628,7 +417,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         lines_left = [r for r in after["reasons"] if "line" in r] if opt.lines_veto else []
         status = ("explained" if (removed >= opt.explained_fraction
                                   or share_after < opt.min_structured) and not lines_left
-                  else "unexplained")
+                  else "partly_explained")
 
     # how far it shrinks: overall and per flagged region, held-out, with intervals
     fam_te = label_regions(te, angle_order, opt.regions)
@@ -669,6 +458,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         "skipped": skipped,
         "ambiguities": [list(a) for a in ambiguities],
         "steps": steps,
+        "rejected_for_parsimony": rejected,
         "verdict": {"status": status, "effects": chosen, "rmse_test_after": _rmse(cur.e_test),
                     "model": cur.model.name,
                     "shapes": {st["effect"]: st["shape"] for st in steps},
@@ -680,6 +470,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                     "structured_share_before": float(structured_share),
                     "structured_share_after": float(share_after),
                     "noise_floor_rms": float(np.sqrt(floor)),
+                    "noise_floor_source": ("sensors" if floor_sensor and floor_sensor > floor_white
+                                           else "first differences"),
                     "residual_after": {k: after[k] for k in ("structured", "reasons")}},
         "shrinkage": {"overall": {"rmse_before": _rmse(base_fit.e_test),
                                   "rmse_after": _rmse(cur.e_test), "shrinkage": overall[0],
@@ -777,31 +569,3 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     d = diagnose_detailed(train_runs, test_runs, model, tprep, topt, transmission=None)
     d.report["baseline"]["shape"] = shape
     return d
-
-
-def merge_transmission(report: dict, tx: dict) -> None:
-    """Fold the transmission law's diagnosis `tx` into the output-side `report` (in place):
-    `transmission` holds it whole; `candidates` gets its candidates, every row naming the
-    `model` it was added to, best first by held-out shrinkage; the verdict lists both laws'
-    effects (`effect_models` says which law each came from, `laws` each law's verdict) and is
-    `unexplained` when either law is, `explained` when an effect was chosen, else `none`."""
-    law0, law1 = report["baseline"]["model"], tx["baseline"]["model"]
-    for c in report["candidates"]:
-        c.setdefault("model", law0)
-    for c in tx["candidates"]:
-        c["model"] = law1
-    report["candidates"] = sorted(report["candidates"] + tx["candidates"],
-                                  key=lambda c: -c["shrinkage"])
-    for row in tx["candidates"]:
-        report["skipped"].pop(row["effect"], None)
-    report["transmission"] = tx
-    v, tv = report["verdict"], tx["verdict"]
-    v["laws"] = {law0: {k: v[k] for k in ("status", "effects", "rmse_test_after", "model")},
-                 law1: {k: tv[k] for k in ("status", "effects", "rmse_test_after", "model")}}
-    v["effect_models"] = {**{e: law0 for e in v["effects"]},
-                          **{e: law1 for e in tv["effects"] if e not in v["effects"]}}
-    v["effects"] = v["effects"] + [e for e in tv["effects"] if e not in v["effects"]]
-    v["shapes"] = {**tv["shapes"], **v["shapes"]}
-    statuses = (v["status"], tv["status"])
-    v["status"] = ("unexplained" if "unexplained" in statuses
-                   else "explained" if v["effects"] else "none")

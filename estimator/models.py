@@ -136,11 +136,12 @@ def eq5(offset: bool = True) -> LinearModel:
 
 
 def bouc_wen_x(sig: Mapping[str, np.ndarray], alpha: float, beta: float, gamma: float,
-               n: int = 1) -> np.ndarray:
-    """Bouc–Wen state x [rad] along the twist Δ of the signals (restarted at 0 at each run's
-    first sample when several runs are concatenated), integrated with the shared step."""
+               n: int = 1, displacement: str = "torsion") -> np.ndarray:
+    """Bouc–Wen state x along the displacement of the signals (the twist Δ [rad] by default;
+    restarted at 0 at each run's first sample when several runs are concatenated), integrated
+    with the shared step."""
     from estimator.bouc_wen_kernel import bw_state  # the compiled core.terms.bouc_wen_step loop
-    delta = np.asarray(sig["torsion"], dtype=float)
+    delta = np.asarray(sig[displacement], dtype=float)
     run = np.asarray(sig["run"]) if "run" in sig else np.zeros(delta.size, dtype=int)
     x = np.empty_like(delta)
     for r in np.unique(run):
@@ -232,6 +233,8 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     load_dependent_friction   mu · load_dependent_friction_torque(q̇, T, 1)         (output; T is the
                               measured torque, an errors-in-variables approximation)
     temperature_friction      c_T · temperature_friction_torque(q̇, temp_joint, 1, T_ref) (output)
+    asymmetric_friction       d_v · asym(q̇, 0, 1): the positive direction's extra viscous slope
+                              (its extra Coulomb level is a constant to Eq. 4: a torque offset)
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
                               (the unknown phase made linear); one column A if `phase` is given
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor)
@@ -262,9 +265,9 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         if eff.magnitude in shape:
             raise ValueError(f"{eff.magnitude!r} is the magnitude of {name!r}: it is the parameter "
                              "identified, not a shape to fix")
-    if eff.acts_on == "transmission" and model.kind != "transmission":
-        raise ValueError(f"effect {name!r} acts on the transmission (twist–torque law); add it "
-                         f"to a transmission model (eq5, eq11), not to {model.name!r}")
+    # a transmission effect sits in whatever law has the displacement: the twist of a
+    # transmission law, else the position itself (a system with no separate twist channel)
+    disp = "torsion" if model.kind == "transmission" else "q"
     if eff.acts_on == "sensor" and model.kind == "generic" and name == "time_delay":
         raise ValueError("time_delay is defined on the torque channel; it applies to eq4/eq5/eq11")
     v_eps = V_EPS
@@ -277,6 +280,11 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         return Term(name, ("mu",), ("-",),
                     lambda s: fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps),
                     ("qd", "torque"))
+    if name == "asymmetric_friction":
+        # the Coulomb part, d_c·(1 + sgn q̇)/2, is a constant plus Eq. 4's own Coulomb column
+        # (a torque offset to any fit): its identifiable part is the viscous slope's
+        return Term(name, ("d_v",), ("N·m·s/rad",),
+                    lambda s: fx.asymmetric_friction_torque(s["qd"], 0.0, 1.0, v_eps), ("qd",))
     if name == "temperature_friction":
         T_ref = shape_params["T_ref"]
         return Term(name, ("c_T",), ("N·m/K",),
@@ -307,10 +315,10 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         b = float(shape.get("beta", _P.beta))
         g = float(shape.get("gamma", _P.gamma))
         n = int(shape.get("n", _P.n))
-        return Term(name, ("k_h",), ("N·m/rad",), lambda s: bouc_wen_x(s, a, b, g, n),
-                    ("torsion",))
+        return Term(name, ("k_h",), ("N·m/rad",), lambda s: bouc_wen_x(s, a, b, g, n, disp),
+                    (disp,))
     if name == "backlash":
         b = shape_params["b"]
         return Term(name, ("k_bl",), ("N·m/rad",),
-                    lambda s: fx.backlash_twist(s["torsion"], b) - s["torsion"], ("torsion",))
+                    lambda s: fx.backlash_twist(s[disp], b) - s[disp], (disp,))
     raise ValueError(f"effect {name!r} has no column form")  # pragma: no cover - vocabulary grew

@@ -69,12 +69,14 @@ load_dependent_friction_torque = _jit(fx.load_dependent_friction_torque, smooth_
 temperature_friction_torque = _jit(fx.temperature_friction_torque, smooth_sign=smooth_sign)
 backlash_twist = _jit(fx.backlash_twist)
 gear_ripple_torque = _jit(fx.gear_ripple_torque)
+asymmetric_friction_torque = _jit(fx.asymmetric_friction_torque, smooth_sign=smooth_sign)
 
 # --- parameter vector PF (float64) ---------------------------------------------------------
 (I_XX, MR_X, MR_Y, F_V, F_C, V_EPS, K_U, K_H, DAMP, ALPHA, BETA, GAMMA, NRED, ETA, K_T, J_M,
  B_M, KP, KI, R_WIND, R_TH_M, C_TH_M, T_AMB, R_TH_J, C_TH_J, DYNO_TAU, P_MAX, P_TAU, DT, KP_POS,
  HYST_ON, STRIB_ON, F_S, V_S, LDF_ON, MU, TF_ON, C_T, T_REF, BL_ON, BL_B, GR_ON, GR_A, GR_ORDER,
- GR_PHASE, DELAY_STEPS, OSC1_C, OSC1_S, OSC2_C, OSC2_S, ERR_A1, ERR_A2, N_PF) = range(53)
+ GR_PHASE, DELAY_STEPS, OSC1_C, OSC1_S, OSC2_C, OSC2_S, ERR_A1, ERR_A2, AF_ON, AF_DC, AF_DV,
+ N_PF) = range(56)
 
 # --- state vector S (float64), advanced in place --------------------------------------------
 (S_Q, S_QD, S_U, S_UD, S_X, S_DS, S_INT, _S_INT1, _S_INT2, S_TW, _S_TW1, _S_TW2, S_TJ, S_TAUF,
@@ -97,15 +99,15 @@ IMPLICIT_BAND = 30.0
 def friction_params(PF):
     """Tuple of the friction terms' parameters (a value, so the loop keeps it in registers)."""
     return (PF[F_V], PF[F_C], PF[V_EPS], PF[STRIB_ON], PF[F_S], PF[V_S], PF[LDF_ON], PF[MU],
-            PF[TF_ON], PF[C_T], PF[T_REF])
+            PF[TF_ON], PF[C_T], PF[T_REF], PF[AF_ON], PF[AF_DC], PF[AF_DV])
 
 
 @numba.njit(cache=True, inline="always")
 def friction(v, T, temp_joint, fp):
     """Output-side velocity-dependent friction [N·m] at output speed v: Eq. 4's viscous +
-    Coulomb terms plus the injected stribeck, load_dependent_friction, temperature_friction.
-    fp = friction_params(PF)."""
-    f_v, f_c, v_eps, strib_on, f_s, v_s, ldf_on, mu, tf_on, c_T, T_ref = fp
+    Coulomb terms plus the injected stribeck, load_dependent_friction, temperature_friction,
+    asymmetric_friction. fp = friction_params(PF)."""
+    f_v, f_c, v_eps, strib_on, f_s, v_s, ldf_on, mu, tf_on, c_T, T_ref, af_on, d_c, d_v = fp
     f = viscous_coulomb_friction(v, f_v, f_c, v_eps)
     if strib_on != 0.0:
         f += stribeck_torque(v, f_s, v_s, v_eps)
@@ -113,6 +115,8 @@ def friction(v, T, temp_joint, fp):
         f += load_dependent_friction_torque(v, T, mu, v_eps)
     if tf_on != 0.0:
         f += temperature_friction_torque(v, temp_joint, c_T, T_ref, v_eps)
+    if af_on != 0.0:
+        f += asymmetric_friction_torque(v, d_c, d_v, v_eps)
     return f
 
 

@@ -52,6 +52,9 @@ def pack_params(config: EmulatorConfig, kp_pos: float = 0.0) -> np.ndarray:
     if "temperature_friction" in fx:
         e = fx["temperature_friction"]
         pf[K.TF_ON], pf[K.C_T], pf[K.T_REF] = 1.0, e["c_T"], e["T_ref"]
+    if "asymmetric_friction" in fx:
+        e = fx["asymmetric_friction"]
+        pf[K.AF_ON], pf[K.AF_DC], pf[K.AF_DV] = 1.0, e["d_c"], e["d_v"]
     if "backlash" in fx:
         pf[K.BL_ON], pf[K.BL_B] = 1.0, fx["backlash"]["b"]
     if "gear_ripple" in fx:

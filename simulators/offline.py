@@ -19,7 +19,7 @@ from core.run import RunData
 from simulators import kernel as K
 from simulators.config import EmulatorConfig
 from simulators.model import setup
-from simulators.sensors import SENSED, sense
+from simulators.sensors import SENSED, sense, sensor_meta
 
 OFFLINE_CHANNELS = tuple(c for c in SENSED if c != "qdd") + ("phase",)
 """Columns of an offline run (qdd is left for the consumer to derive, as run-format says)."""
@@ -89,5 +89,6 @@ def simulate(scheme: Any, config: EmulatorConfig | None = None, *, started_at: s
         "started_at": started_at or datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "notes": notes,
         "emulator": cfg.describe(),
+        "sensors": sensor_meta(cfg),
     })
     return RunData(samples=df, meta=meta)

@@ -60,6 +60,16 @@ def noise_sigmas(config: EmulatorConfig) -> dict[str, float]:
     return s
 
 
+def sensor_meta(config: EmulatorConfig) -> dict[str, dict[str, float]]:
+    """The run format's `sensors` metadata of the emulated sensors: encoder steps [rad] and
+    noise levels in each channel's unit."""
+    p = config.params
+    return {"q": {"resolution": float(p.enc_res)},
+            "u": {"resolution": float(motor_encoder_step(config) / p.N)},
+            "torque": {"noise_sd": float(p.torque_noise)},
+            "torque_load": {"noise_sd": float(p.load_noise)}}
+
+
 def motor_encoder_step(config: EmulatorConfig) -> float:
     """Resolution of a motor encoder at the motor shaft [rad/count]."""
     return 2.0 * math.pi / config.params.motor_enc_counts

@@ -247,7 +247,7 @@ def options_from_args(args: argparse.Namespace) -> StandInOptions:
     """Options: defaults ← config file [emulate] table ← command line."""
     data: dict[str, Any] = {}
     if args.config:
-        from daq.settings import read_config_file
+        from core.config_file import read_config_file
         data = read_config_file(args.config, section="emulate")
     emu = dict(data.pop("emulator", {}) or {})
     if "node_ids" in data and isinstance(data["node_ids"], str):

@@ -4,7 +4,8 @@ import json
 
 import pytest
 
-from daq.settings import Settings, read_config_file
+from core.config_file import read_config_file
+from daq.settings import Settings
 
 
 def test_defaults_are_loopback_and_bounded():

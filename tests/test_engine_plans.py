@@ -8,7 +8,7 @@ import argparse
 import numpy as np
 import pytest
 
-from daq import cmd_run
+from commands import cmd_run
 from daq.plans import Plan
 from core.params import REDUCTION
 from core.schemes import RPM, Scheme1, Scheme2, Scheme3

@@ -97,9 +97,10 @@ def test_effect_columns_are_the_vocabulary_terms_at_unit_magnitude():
     run.samples["temp_joint"] = 30.0
     m = (eq4().with_effect("stribeck", v_s=0.01).with_effect("gear_ripple", order=12)
          .with_effect("torque_offset").with_effect("temperature_friction")
-         .with_effect("load_dependent_friction").with_effect("time_delay"))
+         .with_effect("load_dependent_friction").with_effect("time_delay")
+         .with_effect("asymmetric_friction"))
     assert m.name == "eq4+stribeck+gear_ripple+torque_offset+temperature_friction+" \
-                     "load_dependent_friction+time_delay"
+                     "load_dependent_friction+time_delay+asymmetric_friction"
     s = prepare(run, m.requires)
     X = m.design(s)
     names = m.param_names
@@ -111,8 +112,10 @@ def test_effect_columns_are_the_vocabulary_terms_at_unit_magnitude():
     assert np.allclose(col["c_T"], fx.temperature_friction_torque(s["qd"], 30.0, 1.0, 40.0, P.v_eps))
     assert np.allclose(col["mu"], fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, P.v_eps))
     assert np.allclose(col["delay"], -s["torque_rate"])
-    with pytest.raises(ValueError, match="transmission"):
-        eq4().with_effect("backlash")
+    assert np.allclose(col["d_v"], fx.asymmetric_friction_torque(s["qd"], 0.0, 1.0, P.v_eps))
+    # a transmission effect on a law without a twist acts on the position itself
+    bl = eq4().with_effect("backlash", b=0.01)
+    assert "q" in bl.requires and "torsion" not in bl.requires
     with pytest.raises(ValueError, match="unknown effect"):
         eq4().with_effect("warp_drive")
     with pytest.raises(ValueError, match="magnitude"):

@@ -1,0 +1,263 @@
+"""Candidates of the gap diagnosis: each effect of the vocabulary as extra column(s) of the
+nominal model, its shape searched on the training runs, fitted by least squares, and scored on
+the held-out runs (gain per sample with its batch-means standard error, shrinkage, the shrinkage
+predicted from the training runs, parameters moved, ambiguity with nominal parameters)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from core import effects as fx
+from estimator.diagnosis_options import DiagnosisOptions
+from estimator.diagnosis_stats import angle_lines, mean_se
+from estimator.least_squares import OLSResult, ols
+from estimator.models import LinearModel
+
+
+def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
+                disp: str = "torsion") -> list[dict]:
+    """Shapes to search for effect `name`, scaled by the training signals; `disp` is the
+    displacement a transmission effect acts on (the twist, or q on a law without one)."""
+    if name == "stribeck":
+        top = float(np.quantile(np.abs(sig["qd"]), 0.99)) or 1.0
+        return [{"v_s": r * top} for r in opt.stribeck_vs_rel]
+    if name == "gear_ripple":
+        # only orders whose ripple period the runs' travel covers at least twice: below that a
+        # sine of the angle is a smooth function of it (a stiffness, a gravity-like term) and
+        # not a ripple; then screen by the nominal residual's angular lines, fit the strongest
+        travel = float(np.ptp(sig["q"]))
+        orders = np.asarray([k for k in opt.ripple_orders if k * travel >= 4.0 * np.pi])
+        if orders.size == 0:
+            raise ValueError("the runs' travel covers no ripple period of the orders searched")
+        top = angle_lines(e_train, sig["q"], orders).get("top_orders")
+        return [{"order": float(k)} for k in (top or orders)]
+    if name == "backlash":
+        # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)
+        top = float(np.quantile(np.abs(sig[disp]), 0.99)) or 1e-3
+        return [{"b": r * top} for r in opt.backlash_b_rel]
+    if name == "hysteresis":
+        return bouc_wen_grid(sig, opt, disp)
+    return [{}]
+
+
+def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> list[dict]:
+    """Bouc–Wen shapes (α = 1, n = 1, β, γ) to search, scaled by the training twist: yield
+    twist 1/(β+γ) = a fraction of the 99th percentile of |Δ| (opt.bw_yield_rel), β/(β+γ) from
+    opt.bw_beta_share. From the data, never from the emulator's parameter values."""
+    ref = float(np.median(sig[disp])) if disp == "q" else 0.0   # a position has no natural zero
+    top = float(np.quantile(np.abs(sig[disp] - ref), 0.99)) or 1e-3
+    out = []
+    for r in opt.bw_yield_rel:
+        ssum = 1.0 / (r * top)
+        for share in opt.bw_beta_share:
+            out.append({"alpha": 1.0, "beta": share * ssum, "gamma": (1.0 - share) * ssum,
+                        "n": 1})
+        if disp == "q":   # any hysteretic system: hardening loading branches (β + γ < 0) too
+            for ratio in opt.bw_gamma_ratio_generic:
+                out.append({"alpha": 1.0, "beta": ssum, "gamma": ratio * ssum, "n": 1})
+    return out
+
+
+def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
+                      ) -> tuple[dict[str, list[tuple[dict, LinearModel]]], dict[str, str]]:
+    names = opt.candidates or fx.EFFECT_NAMES
+    out, skipped = {}, {}
+    for name in names:
+        if name in model.effects:
+            continue
+        acts = fx.VOCABULARY[name].acts_on if name in fx.VOCABULARY else "?"
+        if model.kind == "transmission" and acts == "output":
+            skipped[name] = "acts on the output-side balance, not on the transmission law"
+            continue
+        disp = "torsion" if model.kind == "transmission" else "q"
+        if acts == "transmission" and model.kind != "transmission" and "torsion" in sig:
+            skipped[name] = "diagnosed on the twist–torque law (the runs carry the twist)"
+            continue
+        try:
+            grid = _shape_grid(name, sig, opt, e_train, disp)
+            models = [(shape, model.with_effect(name, **shape)) for shape in grid]
+            models[0][1].design({k: v[:8] for k, v in sig.items()})
+        except KeyError as exc:
+            skipped[name] = f"the runs lack signal {exc}"
+            continue
+        except ValueError as exc:
+            skipped[name] = str(exc)
+            continue
+        out[name] = models
+    return out, skipped
+
+
+@dataclass
+class _Fit:
+    model: LinearModel
+    shape: dict
+    theta: np.ndarray
+    se: np.ndarray
+    cov: np.ndarray
+    e_train: np.ndarray
+    e_test: np.ndarray
+    rmse_train_dof: float
+    ols: OLSResult | None = None
+
+
+def _fit(model: LinearModel, shape: dict, tr: dict, te: dict) -> _Fit:
+    X, y = model.design(tr), model.target(tr)
+    res = ols(X, y)
+    e_tr = y - X @ res.theta
+    e_te = model.target(te) - model.design(te) @ res.theta
+    return _Fit(model, shape, res.theta, res.se, res.cov, e_tr, e_te,
+                float(np.sqrt(res.rss / max(res.dof, 1))), res)
+
+
+def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _Fit:
+    """The grid's shape of least training RSS; a Bouc–Wen shape on a law whose displacement is
+    the position (no twist channel: any hysteretic system, whose shape is not the J4
+    transmission's) is then refined by profile least squares over (β, γ/β)."""
+    best, best_rss = None, np.inf
+    for shape, m in models:
+        X, y = m.design(tr), m.target(tr)
+        res = ols(X, y)
+        if res.rss < best_rss:
+            best, best_rss = (shape, m), res.rss
+    shape, m = best
+    if "beta" in shape and m.kind != "transmission":
+        shape, m = _refined_bouc_wen(shape, m, tr)
+    return _fit(m, shape, tr, te)
+
+
+def _refined_bouc_wen(shape: dict, m: LinearModel, tr: dict) -> tuple[dict, LinearModel]:
+    """Refine a Bouc–Wen candidate's shape (α = 1, n = 1) by Nelder–Mead on the training RSS
+    over (log β, γ/β), γ/β in [−2, 2]: the hysteretic families of the literature (softening
+    β + γ > 0, hardening β + γ < 0 loading branches) lie there."""
+    from scipy.optimize import minimize
+    base = replace(m, name=m.name.rsplit("+", 1)[0], terms=m.terms[:-1], effects=m.effects[:-1])
+
+    def make(v):
+        beta = float(np.exp(v[0]))
+        sh = {"alpha": 1.0, "beta": beta, "gamma": beta * float(np.clip(v[1], -2.0, 2.0)),
+              "n": 1}
+        return sh, base.with_effect("hysteresis", **sh)
+
+    def rss(v):
+        _, mm = make(v)
+        return ols(mm.design(tr), mm.target(tr)).rss
+
+    v0 = np.array([np.log(shape["beta"]), shape["gamma"] / shape["beta"]])
+    r0 = rss(v0)
+    res = minimize(rss, v0, method="Nelder-Mead",
+                   options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * r0})
+    return make(res.x) if res.fun < r0 else (shape, m)
+
+
+def _loro_errors(model: LinearModel, tr: dict) -> np.ndarray:
+    """Leave-one-run-out errors on the training runs: each training run predicted by the model
+    fitted on the other training runs (one run alone: its in-sample errors, dof-corrected)."""
+    X, y = model.design(tr), model.target(tr)
+    run = tr["run"]
+    runs = np.unique(run)
+    if runs.size < 2:
+        res = ols(X, y)
+        return (y - X @ res.theta) * np.sqrt(X.shape[0] / max(res.dof, 1))
+    e = np.empty_like(y)
+    for r in runs:
+        m = run == r
+        res = ols(X[~m], y[~m])
+        e[m] = y[m] - X[m] @ res.theta
+    return e
+
+
+def predicted_shrinkage(cur: LinearModel, new: LinearModel, tr: dict) -> float:
+    """Shrinkage predicted from the training runs alone: 1 − rmse_new/rmse_cur of the
+    leave-one-run-out errors (each run predicted as a held-out run would be)."""
+    r0, r1 = _rmse(_loro_errors(cur, tr)), _rmse(_loro_errors(new, tr))
+    return 1.0 - r1 / r0 if r0 > 0 else 0.0
+
+
+def _rmse(e: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
+
+
+def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
+           tr: dict | None = None) -> dict:
+    d = cur.e_test ** 2 - new.e_test ** 2
+    gain, se = mean_se(d, te_blocks)
+    r0, r1 = _rmse(cur.e_test), _rmse(new.e_test)
+    shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
+    z = gain / se if np.isfinite(se) and se > 0 else 0.0
+    return {"rmse_test": r1, "shrinkage": shrink,
+            "shrinkage_predicted": _predicted(cur, new, r0, opt),
+            "shrinkage_loro": (predicted_shrinkage(cur.model, new.model, tr) if tr is not None
+                               else None),
+            "gain": float(gain), "gain_se": float(se), "z": float(z),
+            "significant": bool(z > opt.z_gain and shrink >= opt.min_shrinkage)}
+
+
+def _predicted(cur: _Fit, new: _Fit, rmse_before_test: float, opt: DiagnosisOptions) -> float:
+    """Held-out shrinkage predicted from the training runs (opt.predictor):
+    'noise_level' 1 − σ̂_new/rmse_before (σ̂ the new model's dof-corrected training residual sd,
+    rmse_before the current model's held-out RMSE: the held-out error falls to the training
+    noise level); 'training_ratio' 1 − σ̂_new/σ̂_cur (the held-out error shrinks as the training
+    error does — robust when training and held-out runs differ in noise level)."""
+    if opt.predictor == "training_ratio":
+        return 1.0 - new.rmse_train_dof / cur.rmse_train_dof if cur.rmse_train_dof > 0 else 0.0
+    return 1.0 - new.rmse_train_dof / rmse_before_test if rmse_before_test > 0 else 0.0
+
+
+def _effect_params(f: _Fit, n_base: int) -> dict:
+    names = f.model.param_names[n_base:]
+    units = f.model.units[n_base:]
+    return {n: {"value": float(v), "se": float(s), "unit": u}
+            for n, v, s, u in zip(names, f.theta[n_base:], f.se[n_base:], units)}
+
+
+def _moved(base: _Fit, f: _Fit, n_base: int) -> tuple[dict, list[str]]:
+    moved, aliases = {}, []
+    sd = np.sqrt(np.clip(np.diag(f.cov), 0, np.inf))
+    for j, name in enumerate(base.model.param_names[:n_base]):
+        shift = (f.theta[j] - base.theta[j]) / base.se[j] if base.se[j] > 0 else 0.0
+        moved[name] = {"before": float(base.theta[j]), "after": float(f.theta[j]),
+                       "se_before": float(base.se[j]), "se_after": float(f.se[j]),
+                       "shift_in_se": float(shift), "unit": base.model.units[j]}
+        rho = 0.0
+        for k in range(n_base, f.theta.size):
+            if sd[j] > 0 and sd[k] > 0 and np.isfinite(f.cov[j, k]):
+                rho = max(rho, abs(f.cov[j, k] / (sd[j] * sd[k])))
+        if abs(shift) > 3 and rho > 0.9:
+            aliases.append(name)
+    return moved, aliases
+
+
+def _contribution(base: _Fit, f: _Fit, tr: dict) -> np.ndarray:
+    """The candidate's fitted contribution on the training runs, orthogonalised against the
+    nominal columns."""
+    n_base = base.theta.size
+    X = f.model.design(tr)
+    c = X[:, n_base:] @ f.theta[n_base:]
+    Xb = X[:, :n_base]
+    coef, *_ = np.linalg.lstsq(Xb, c, rcond=None)
+    return c - Xb @ coef
+
+
+
+def run_consistency(cur: _Fit, new: _Fit, tr: dict, te: dict) -> dict:
+    """How consistently the candidate helps across runs: its mean-square gain per run — on
+    each held-out run, and on each training run predicted by the fit on the other training
+    runs (leave-one-run-out) — and the one-sided Wilcoxon signed-rank p-value that those gains
+    are centred above zero. A real effect helps on most runs; a column that fits one run's
+    peculiarity helps some and hurts others. The test's null comes from the campaign's own
+    runs, not from a constant set on one emulator."""
+    from scipy.stats import wilcoxon
+    gains = []
+    e0, e1 = _loro_errors(cur.model, tr), _loro_errors(new.model, tr)
+    for r in np.unique(tr["run"]):
+        m = tr["run"] == r
+        gains.append(float(np.mean(e0[m] ** 2 - e1[m] ** 2)))
+    for r in np.unique(te["run"]):
+        m = te["run"] == r
+        gains.append(float(np.mean(cur.e_test[m] ** 2 - new.e_test[m] ** 2)))
+    g = np.asarray(gains)
+    p = float(wilcoxon(g, alternative="greater").pvalue) if np.any(g != 0) else 1.0
+    return {"run_gains": g.tolist(), "p_runs": p, "runs_helped": int((g > 0).sum()),
+            "runs": int(g.size)}

@@ -1,0 +1,70 @@
+"""Options of the sim-to-real gap diagnosis (estimator.diagnosis): significance, materiality and
+the shape grids of the candidates. Why each threshold has its value, with the measurements it was
+set on, is in docs/diagnosis.md."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from estimator.diagnosis_regions import RegionOptions
+
+
+@dataclass(frozen=True)
+class DiagnosisOptions:
+    z_gain: float = 3.0
+    """Held-out gain / SE needed to call a candidate significant."""
+    min_shrinkage: float = 0.005
+    """Smallest held-out RMSE shrinkage that counts (1 − after/before)."""
+    max_effects: int = 3
+    explained_fraction: float = 0.8
+    """Share of the structured residual mean square the chosen effects must remove."""
+    min_structured: float = 0.05
+    """With no effect chosen, the residual is called structured only when the tests flag it and
+    its part above the noise floor is at least this share of its mean square (a materiality
+    threshold; docs/diagnosis.md)."""
+    block: int | None = None
+    """Samples per batch-means block; None: max(10, √n per run)."""
+    ripple_orders: tuple[int, ...] = tuple(range(2, 121))
+    stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
+    """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
+    backlash_b_rel: tuple[float, ...] = (0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.13)
+    """Backlash dead-zone half-widths b searched, as fractions of the training runs' top |Δ|
+    (99th percentile of the twist)."""
+    bw_yield_rel: tuple[float, ...] = (0.01, 0.02, 0.04, 0.07, 0.12, 0.2, 0.35)
+    """Bouc–Wen yield twists α/(β+γ) searched (α = 1, n = 1; only α·k_h is identifiable), as
+    fractions of the training runs' top |Δ| — for the nominal Bouc–Wen law and for the
+    hysteresis candidate of an elastic law."""
+    lines_veto: bool = True
+    """A spectral line left in the residual (in time or in output angle) keeps the verdict from
+    `explained`."""
+    transmission_min_structured: float = 0.75
+    """min_structured of the twist–torque law (no line veto there); docs/diagnosis.md."""
+    transmission_min_shrinkage: float = 0.04
+    """min_shrinkage of the twist–torque law (a materiality threshold); docs/diagnosis.md."""
+    predictor: str = "noise_level"
+    """How the held-out shrinkage is predicted from the training runs: 'noise_level' or
+    'training_ratio' (see _predicted)."""
+    transmission_predictor: str = "training_ratio"
+    """predictor of the twist–torque law; docs/diagnosis.md."""
+    transmission_decimate: int = 5
+    """The twist–torque law is diagnosed on runs low-passed and decimated by this factor
+    (estimator.preprocess): the output encoder's step jitters the twist between samples, and the
+    Bouc–Wen state would run spurious loops along it; docs/diagnosis.md."""
+    bw_beta_share: tuple[float, ...] = (0.3, 0.6, 0.9)
+    """β/(β+γ) searched with each yield twist (sets the unloading branch's shape)."""
+    bw_gamma_ratio_generic: tuple[float, ...] = (-1.5, -1.0, -0.5, 0.0, 0.5, 1.0)
+    """γ/β searched besides those shares on a law whose displacement is the position (a
+    hysteretic system without a twist channel), with β = 1/(yield fraction · top |q − median|)."""
+    parsimony_alpha: float = 0.05
+    """An effect beyond the first is kept only when its per-run gains (held-out runs and
+    leave-one-run-out training runs) are above zero by a one-sided signed-rank test at this
+    level (estimator.diagnosis_candidates.run_consistency)."""
+    candidates: tuple[str, ...] | None = None
+    """Effects to try (default: the whole vocabulary, those applicable)."""
+    regions: RegionOptions = field(default_factory=RegionOptions)
+    n_boot: int = 400
+    seed: int = 0
+    series_points: int = 0
+    """With > 0, the report carries `series`: at most this many samples per run (evenly
+    decimated) of the measured target, the nominal and the final model's predictions and the
+    flagged regions' members, for plots (api reports); 0: no series."""

@@ -1,0 +1,43 @@
+"""Verdicts of the gap diagnosis: one law's status from what was chosen and what structure is
+left, and the merge of the output-side and the twist–torque laws' diagnoses into one verdict."""
+
+from __future__ import annotations
+
+
+def merge_transmission(report: dict, tx: dict) -> None:
+    """Fold the transmission law's diagnosis `tx` into the output-side `report` (in place):
+    `transmission` holds it whole; `candidates` gets its candidates, every row naming the
+    `model` it was added to, best first by held-out shrinkage; the verdict lists both laws'
+    effects (`effect_models` says which law each came from, `laws` each law's verdict) and is
+    `unexplained` when either law is, `explained` when an effect was chosen, else `none`."""
+    law0, law1 = report["baseline"]["model"], tx["baseline"]["model"]
+    for c in report["candidates"]:
+        c.setdefault("model", law0)
+    for c in tx["candidates"]:
+        c["model"] = law1
+    report["candidates"] = sorted(report["candidates"] + tx["candidates"],
+                                  key=lambda c: -c["shrinkage"])
+    for row in tx["candidates"]:
+        report["skipped"].pop(row["effect"], None)
+    report["transmission"] = tx
+    v, tv = report["verdict"], tx["verdict"]
+    v["laws"] = {law0: {k: v[k] for k in ("status", "effects", "rmse_test_after", "model")},
+                 law1: {k: tv[k] for k in ("status", "effects", "rmse_test_after", "model")}}
+    v["effect_models"] = {**{e: law0 for e in v["effects"]},
+                          **{e: law1 for e in tv["effects"] if e not in v["effects"]}}
+    v["effects"] = v["effects"] + [e for e in tv["effects"] if e not in v["effects"]]
+    v["shapes"] = {**tv["shapes"], **v["shapes"]}
+    v["status"] = combined_status([v["status"], tv["status"]])
+
+
+def combined_status(statuses: list[str]) -> str:
+    """One verdict from the laws' verdicts: `none` when every law is `none`; `explained` when
+    every law is `none` or `explained`; else `partly_explained` when some law named an effect
+    (structure remains beside it), `unexplained` when none did."""
+    if all(st == "none" for st in statuses):
+        return "none"
+    if all(st in ("none", "explained") for st in statuses):
+        return "explained"
+    if any(st in ("explained", "partly_explained") for st in statuses):
+        return "partly_explained"
+    return "unexplained"

@@ -1,0 +1,129 @@
+"""The diagnosis on data it was not tuned on (issue 11): a hysteretic system whose only
+displacement is the position (the public Bouc–Wen benchmark's mass–spring, written out here
+from its published equations), direction-dependent friction on the real EMPS records, the
+run format's `sensors` metadata, and the verdict's statuses."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from core.run import RunData
+from core.runfile import RunFileError, read_run, write_run
+from estimator.diagnosis import diagnose
+from estimator.diagnosis_verdict import combined_status
+from estimator.models import linear_model
+
+EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps"
+
+
+def hysteretic_mass_spring(seed: int, duration: float = 8.0, fs: float = 750.0,
+                           noise: float = 2e-6, scale: float = 1.0, f_max: float = 60.0
+                           ) -> RunData:
+    """m·ÿ + c·ẏ + k·y + z = F, ż = α·ẏ − β·(γ·|ẏ|·z + δ·ẏ·|z|) with Noël & Schoukens's values
+    (m 2 kg, c 10 N·s/m, k 5e4 N/m, α 5e4 N/m, β 1e3 1/m, γ 0.8, δ −1.1); F a random-phase
+    multisine from 5 Hz to f_max (the benchmark's 150 Hz is a fifth of its sample rate, where a
+    difference-quotient acceleration is 12 % short; 60 Hz keeps the resonance at ~35 Hz
+    inside), 50 N RMS; semi-implicit Euler at 20 × fs; y with white noise. Run as the
+    joint's channels: q = y [m], torque = F [N]. No code of the repository's emulator."""
+    rng = np.random.default_rng(seed)
+    m, c, k, a, b, g, d = 2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1
+    sub = 20
+    dt = 1.0 / fs / sub
+    n = int(duration / dt)
+    t = np.arange(n) * dt
+    freqs = np.arange(5.0, f_max, 0.5)
+    phases = rng.uniform(0, 2 * np.pi, freqs.size)
+    F = np.zeros(n)
+    for f, p in zip(freqs, phases):
+        F += np.sin(2 * np.pi * f * t + p)
+    F *= 50.0 / F.std()
+    y = v = z = 0.0
+    Y = np.empty(n)
+    for i in range(n):
+        v += (F[i] - c * v - k * y - scale * z) / m * dt
+        y += v * dt
+        z += (a * v - b * (g * abs(v) * z + d * v * abs(z))) * dt
+        Y[i] = y
+    keep = slice(None, None, sub)
+    q = Y[keep] + rng.normal(0.0, noise, Y[keep].size)
+    return RunData(pd.DataFrame({"t": t[keep], "q": q, "torque": F[keep]}),
+                   {"sample_rate_hz": fs, "source": "import"})
+
+
+def mass_spring_model():
+    return linear_model("mass_spring", "torque", {"m": ("qdd", "kg"), "c": ("qd", "N·s/m"),
+                                                  "k": ("q", "N/m"), "C": ("1", "N")},
+                        target_unit="N")
+
+
+@pytest.mark.slow
+def test_hysteretic_mass_spring_is_diagnosed_as_hysteresis():
+    train = [hysteretic_mass_spring(1), hysteretic_mass_spring(2)]
+    test = [hysteretic_mass_spring(3)]
+    rep = diagnose(train, test, mass_spring_model())
+    v = rep["verdict"]
+    assert v["effects"][:1] == ["hysteresis"], v
+    assert v["status"] in ("explained", "partly_explained")
+    assert rep["shrinkage"]["overall"]["shrinkage"] > 0.5
+    # a sine of a displacement that never covers a ripple period is no ripple candidate
+    assert "gear_ripple" in rep["skipped"]
+
+
+@pytest.mark.slow
+def test_linear_mass_spring_names_no_effect():
+    """Without hysteresis nothing is named. (The verdict is `unexplained`, not `none`: the
+    difference-quotient acceleration leaves a residual correlated with the input — a gap of the
+    pipeline, not of the system; noted in docs/diagnosis.md.)"""
+    train = [hysteretic_mass_spring(4, scale=0.0), hysteretic_mass_spring(5, scale=0.0)]
+    test = [hysteretic_mass_spring(6, scale=0.0)]
+    v = diagnose(train, test, mass_spring_model())["verdict"]
+    assert v["effects"] == [] and v["status"] in ("none", "unexplained")
+
+
+@pytest.mark.skipif(not EMPS.exists(), reason="../shared/data/emps not beside the checkout")
+def test_emps_names_direction_dependent_friction():
+    from commands.diagnosis_harness import run_emps
+    r = run_emps()
+    assert r["effects"][:1] == ["asymmetric_friction"]
+    row = next(c for c in r["report"]["candidates"] if c["effect"] == "asymmetric_friction")
+    assert row["significant"] and row["shrinkage"] > 0.03
+    assert r["status"] in ("explained", "partly_explained")
+
+
+def test_sensors_metadata_round_trips_and_is_checked(tmp_path):
+    sensors = {"q": {"resolution": 1.745e-4}, "u": {"resolution": 1e-7},
+               "torque": {"noise_sd": 150.0, "lag_s": 0.0}}
+    run = RunData(pd.DataFrame({"t": [0.0, 0.1, 0.2], "q": [0.0, 1e-3, 2e-3]}),
+                  {"sample_rate_hz": 10, "sensors": sensors})
+    write_run(run, tmp_path / "r.csv")
+    assert read_run(tmp_path / "r.csv").meta["sensors"] == sensors
+    for bad in ({"q": {"resolution": -1}}, {"q": {"step": 1e-3}}, {"q": 3}, [1]):
+        meta = {"sample_rate_hz": 10, "sensors": bad}
+        (tmp_path / "b.csv").write_text("t,q\n0,0\n0.1,0\n")
+        (tmp_path / "b.json").write_text(json.dumps(meta))
+        with pytest.raises(RunFileError, match="sensors"):
+            read_run(tmp_path / "b.csv")
+
+
+def test_emulated_runs_carry_their_sensors():
+    from core.schemes import Scheme1
+    from simulators.offline import simulate
+    from simulators.config import EmulatorConfig
+    run = simulate(Scheme1(motor_speed_rpm=3000, direction=1, ramp_rate=60e3),
+                   EmulatorConfig(seed=1, sample_rate_hz=20))
+    s = run.meta["sensors"]
+    assert s["q"]["resolution"] == pytest.approx(np.deg2rad(0.01))
+    assert s["torque"]["noise_sd"] > 0
+
+
+def test_combined_status_never_reads_as_a_cause_when_structure_remains():
+    assert combined_status(["none", "none"]) == "none"
+    assert combined_status(["explained", "none"]) == "explained"
+    assert combined_status(["explained", "unexplained"]) == "partly_explained"
+    assert combined_status(["partly_explained", "none"]) == "partly_explained"
+    assert combined_status(["unexplained", "none"]) == "unexplained"
