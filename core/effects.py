@@ -58,14 +58,20 @@ VOCABULARY: dict[str, Effect] = {e.name: e for e in (
     Effect("stribeck", "friction above Coulomb at low speed, falling with speed",
            "low speeds (300 r/min runs), velocity reversals", "output", "f_s",
            (EffectParam("f_s", 1500.0, "N·m", "extra friction at zero speed"),
-            EffectParam("v_s", 6e-3, "rad/s", "Stribeck speed (output side; 300 r/min = 2.9e-3)"))),
+            EffectParam("v_s", 6e-3, "rad/s", "Stribeck speed (output side; 300 r/min = 2.9e-3)"),
+            EffectParam("delta", 2.0, "-", "exponent of the curve exp(−|q̇/v_s|^delta) (2 "
+                        "Gaussian, 1 exponential); 0 selects the Lorentzian 1/(1 + (q̇/v_s)²)"))),
     Effect("load_dependent_friction", "gear/bearing friction growing with transmitted torque",
            "high load; sign flips with the direction of motion", "output", "mu",
-           (EffectParam("mu", 0.02, "-", "friction torque per unit of |transmitted torque|"),)),
+           (EffectParam("mu", 0.02, "-", "friction torque per unit of |transmitted torque|"),
+            EffectParam("mu_v", 0.0, "s/rad", "viscous friction torque per unit of |transmitted "
+                        "torque| and of speed (the viscous part scaled by the load)"))),
     Effect("temperature_friction", "lubricant drag that changes with joint temperature",
            "cold vs warm runs; drifts along long runs", "output", "c_T",
            (EffectParam("c_T", 30.0, "N·m/K", "extra drag per kelvin below T_ref"),
-            EffectParam("T_ref", 40.0, "°C", "temperature at which the drag is nominal"))),
+            EffectParam("T_ref", 40.0, "°C", "temperature at which the drag is nominal"),
+            EffectParam("c_Tv", 0.0, "N·m·s/(rad·K)",
+                        "extra viscous slope per kelvin below T_ref (lubricant viscosity)"))),
     Effect("backlash", "dead zone in the transmission",
            "torque and velocity reversals", "transmission", "b",
            (EffectParam("b", 8.7e-4, "rad", "half-width of the dead zone (0.05°)"),)),
@@ -106,19 +112,25 @@ def resolve_effects(spec: Mapping[str, Mapping[str, float] | None]) -> dict[str,
 
 # --- the effects' terms (NumPy/numba-compatible) -----------------------------------------------
 
-def stribeck_torque(qd, f_s, v_s, v_eps):
-    """Stribeck friction above Coulomb [N·m]: f_s·exp(−(q̇/v_s)²)·sgn(q̇)."""
-    return f_s * np.exp(-(qd / v_s) ** 2) * smooth_sign(qd, v_eps)
+def stribeck_torque(qd, f_s, v_s, v_eps, delta=2.0):
+    """Stribeck friction above Coulomb [N·m]: f_s·exp(−|q̇/v_s|^delta)·sgn(q̇), or with
+    delta = 0 the Lorentzian f_s/(1 + (q̇/v_s)²)·sgn(q̇)."""
+    if delta > 0.0:
+        curve = np.exp(-np.abs(qd / v_s) ** delta)
+    else:
+        curve = 1.0 / (1.0 + (qd / v_s) ** 2)
+    return f_s * curve * smooth_sign(qd, v_eps)
 
 
-def load_dependent_friction_torque(qd, T, mu, v_eps):
-    """Efficiency loss growing with the transmitted torque T [N·m]: μ·|T|·sgn(q̇)."""
-    return mu * np.abs(T) * smooth_sign(qd, v_eps)
+def load_dependent_friction_torque(qd, T, mu, v_eps, mu_v=0.0):
+    """Efficiency loss growing with the transmitted torque T [N·m]: |T|·(μ·sgn(q̇) + μ_v·q̇)."""
+    return np.abs(T) * (mu * smooth_sign(qd, v_eps) + mu_v * qd)
 
 
-def temperature_friction_torque(qd, temp, c_T, T_ref, v_eps):
-    """Lubricant drag [N·m]: c_T·(T_ref − temp)·sgn(q̇); more drag when colder than T_ref [°C]."""
-    return c_T * (T_ref - temp) * smooth_sign(qd, v_eps)
+def temperature_friction_torque(qd, temp, c_T, T_ref, v_eps, c_Tv=0.0):
+    """Lubricant drag [N·m]: (T_ref − temp)·(c_T·sgn(q̇) + c_Tv·q̇); more drag when colder than
+    T_ref [°C] (an exponential or polynomial viscosity law to first order)."""
+    return (T_ref - temp) * (c_T * smooth_sign(qd, v_eps) + c_Tv * qd)
 
 
 def backlash_twist(delta, b):

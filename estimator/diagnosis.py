@@ -301,6 +301,42 @@ def _series(pooled: dict, n_train: int, model: LinearModel, e0: np.ndarray, e1: 
                         for r in flagged if r["family"] in fams]}
 
 
+def working_rate(runs: Sequence[RunData], prep: PrepOptions, opt: DiagnosisOptions
+                 ) -> PrepOptions:
+    """`prep` with its decimation raised so that the runs are analysed at no more than
+    max(opt.max_rate_hz, 5 × their torque's bandwidth) (low-passed first,
+    estimator.preprocess): a heavy joint's motion, friction and candidate terms live far below
+    a 1 kHz acquisition's band, and the diagnosis's cost and memory grow with the samples it
+    pools; a system driven faster keeps the rate its signal needs. The bandwidth is measured:
+    the frequency below which 99 % of the detrended torque's power above its white floor
+    lies (the floor: the median of the spectrum's top quarter), the widest over the runs."""
+    rates, bands = [], []
+    for r in runs:
+        t = r.t
+        if t.size < 16:
+            return prep
+        fs = 1.0 / float(np.median(np.diff(t)))
+        rates.append(fs)
+        if "torque" in r.samples.columns:
+            y = r.channel("torque")
+            y = y[np.isfinite(y)]
+            if y.size >= 16:
+                y = y - np.polyval(np.polyfit(np.arange(y.size), y, 1), np.arange(y.size))
+                p = np.abs(np.fft.rfft(y))[1:] ** 2
+                # the power above the white floor (the median of the top quarter's spectrum)
+                p = np.clip(p - np.median(p[3 * p.size // 4:]), 0.0, None)
+                c = np.cumsum(p)
+                if c[-1] > 0:
+                    k = int(np.searchsorted(c, 0.99 * c[-1])) + 1
+                    bands.append(k * fs / y.size)
+    if not rates:
+        return prep
+    effective = min(rates) / prep.decimate
+    target = max(opt.max_rate_hz, 5.0 * max(bands)) if bands else opt.max_rate_hz
+    factor = int(effective // target)
+    return replace(prep, decimate=prep.decimate * factor) if factor > 1 else prep
+
+
 def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                       base: str | LinearModel = "eq4", prep: PrepOptions | None = None,
                       options: DiagnosisOptions | None = None,
@@ -309,7 +345,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     if not train_runs or not test_runs:
         raise ValueError("a diagnosis needs at least one training run and one held-out run")
     opt = options or DiagnosisOptions()
-    prep = prep or PrepOptions()
+    prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)
     model = base_model(base)
     avail = set(_available(train_runs[0], prep))
     for r in list(train_runs[1:]) + list(test_runs):
@@ -375,8 +411,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         significant = sorted((n for n in scored if scored[n]["significant"]),
                              key=lambda n: -scored[n]["gain"])
         # parsimony: an effect beyond the first must also help consistently across the runs
-        # (held-out, and training runs left out one at a time): a one-sided signed-rank test of
-        # its per-run gains at opt.parsimony_alpha
+        # (held-out, and training runs left out one at a time): a one-sided sign test of its
+        # per-run gains at opt.parsimony_alpha
         best = None
         for n in significant:
             if not chosen:

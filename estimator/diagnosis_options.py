@@ -22,11 +22,16 @@ class DiagnosisOptions:
     """With no effect chosen, the residual is called structured only when the tests flag it and
     its part above the noise floor is at least this share of its mean square (a materiality
     threshold; docs/diagnosis.md)."""
+    max_rate_hz: float = 100.0
+    """The diagnosis analyses runs sampled faster than this decimated to it (low-passed first):
+    see estimator.diagnosis.working_rate."""
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))
     stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
+    stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)
+    """Stribeck curves searched: exponents of exp(−|q̇/v_s|^delta), 0 the Lorentzian."""
     backlash_b_rel: tuple[float, ...] = (0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.13)
     """Backlash dead-zone half-widths b searched, as fractions of the training runs' top |Δ|
     (99th percentile of the twist)."""
@@ -57,8 +62,8 @@ class DiagnosisOptions:
     hysteretic system without a twist channel), with β = 1/(yield fraction · top |q − median|)."""
     parsimony_alpha: float = 0.05
     """An effect beyond the first is kept only when its per-run gains (held-out runs and
-    leave-one-run-out training runs) are above zero by a one-sided signed-rank test at this
-    level (estimator.diagnosis_candidates.run_consistency)."""
+    leave-one-run-out training runs) are positive on more runs than chance would give, by a
+    one-sided sign test at this level (estimator.diagnosis_candidates.run_consistency)."""
     candidates: tuple[str, ...] | None = None
     """Effects to try (default: the whole vocabulary, those applicable)."""
     regions: RegionOptions = field(default_factory=RegionOptions)

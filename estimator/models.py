@@ -229,10 +229,11 @@ backlash_twist(Δ, b) − Δ, whose coefficient k_bl [N·m/rad] is identified (�
 def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> Term:
     """The effect's term function at unit magnitude, as regressor column(s):
 
-    stribeck                  f_s · stribeck_torque(q̇, 1, v_s)                    (output)
-    load_dependent_friction   mu · load_dependent_friction_torque(q̇, T, 1)         (output; T is the
+    stribeck                  f_s · stribeck_torque(q̇, 1, v_s, delta)  (output; the curve's
+                              exponent delta, or 0 for the Lorentzian, is a shape)
+    load_dependent_friction   mu · |T|·sgn q̇ + mu_v · |T|·q̇                      (output; T is the
                               measured torque, an errors-in-variables approximation)
-    temperature_friction      c_T · temperature_friction_torque(q̇, temp_joint, 1, T_ref) (output)
+    temperature_friction      (T_ref − temp)·(c_T·sgn q̇ + c_Tv·q̇)                 (output)
     asymmetric_friction       d_v · asym(q̇, 0, 1): the positive direction's extra viscous slope
                               (its extra Coulomb level is a constant to Eq. 4: a torque offset)
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
@@ -273,12 +274,14 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     v_eps = V_EPS
 
     if name == "stribeck":
-        v_s = shape_params["v_s"]
+        v_s, delta = shape_params["v_s"], shape_params["delta"]
         return Term(name, ("f_s",), ("N·m",),
-                    lambda s: fx.stribeck_torque(s["qd"], 1.0, v_s, v_eps), ("qd",))
+                    lambda s: fx.stribeck_torque(s["qd"], 1.0, v_s, v_eps, delta), ("qd",))
     if name == "load_dependent_friction":
-        return Term(name, ("mu",), ("-",),
-                    lambda s: fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps),
+        return Term(name, ("mu", "mu_v"), ("-", "s/rad"),
+                    lambda s: np.column_stack([
+                        fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps, 0.0),
+                        fx.load_dependent_friction_torque(s["qd"], s["torque"], 0.0, v_eps, 1.0)]),
                     ("qd", "torque"))
     if name == "asymmetric_friction":
         # the Coulomb part, d_c·(1 + sgn q̇)/2, is a constant plus Eq. 4's own Coulomb column
@@ -287,9 +290,12 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     lambda s: fx.asymmetric_friction_torque(s["qd"], 0.0, 1.0, v_eps), ("qd",))
     if name == "temperature_friction":
         T_ref = shape_params["T_ref"]
-        return Term(name, ("c_T",), ("N·m/K",),
-                    lambda s: fx.temperature_friction_torque(s["qd"], s["temp_joint"], 1.0,
-                                                             T_ref, v_eps),
+        return Term(name, ("c_T", "c_Tv"), ("N·m/K", "N·m·s/(rad·K)"),
+                    lambda s: np.column_stack([
+                        fx.temperature_friction_torque(s["qd"], s["temp_joint"], 1.0, T_ref,
+                                                       v_eps, 0.0),
+                        fx.temperature_friction_torque(s["qd"], s["temp_joint"], 0.0, T_ref,
+                                                       v_eps, 1.0)]),
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]

@@ -76,7 +76,7 @@ asymmetric_friction_torque = _jit(fx.asymmetric_friction_torque, smooth_sign=smo
  B_M, KP, KI, R_WIND, R_TH_M, C_TH_M, T_AMB, R_TH_J, C_TH_J, DYNO_TAU, P_MAX, P_TAU, DT, KP_POS,
  HYST_ON, STRIB_ON, F_S, V_S, LDF_ON, MU, TF_ON, C_T, T_REF, BL_ON, BL_B, GR_ON, GR_A, GR_ORDER,
  GR_PHASE, DELAY_STEPS, OSC1_C, OSC1_S, OSC2_C, OSC2_S, ERR_A1, ERR_A2, AF_ON, AF_DC, AF_DV,
- N_PF) = range(56)
+ STRIB_DELTA, MU_V, C_TV, N_PF) = range(59)
 
 # --- state vector S (float64), advanced in place --------------------------------------------
 (S_Q, S_QD, S_U, S_UD, S_X, S_DS, S_INT, _S_INT1, _S_INT2, S_TW, _S_TW1, _S_TW2, S_TJ, S_TAUF,
@@ -99,7 +99,8 @@ IMPLICIT_BAND = 30.0
 def friction_params(PF):
     """Tuple of the friction terms' parameters (a value, so the loop keeps it in registers)."""
     return (PF[F_V], PF[F_C], PF[V_EPS], PF[STRIB_ON], PF[F_S], PF[V_S], PF[LDF_ON], PF[MU],
-            PF[TF_ON], PF[C_T], PF[T_REF], PF[AF_ON], PF[AF_DC], PF[AF_DV])
+            PF[TF_ON], PF[C_T], PF[T_REF], PF[AF_ON], PF[AF_DC], PF[AF_DV], PF[STRIB_DELTA],
+            PF[MU_V], PF[C_TV])
 
 
 @numba.njit(cache=True, inline="always")
@@ -107,14 +108,15 @@ def friction(v, T, temp_joint, fp):
     """Output-side velocity-dependent friction [N·m] at output speed v: Eq. 4's viscous +
     Coulomb terms plus the injected stribeck, load_dependent_friction, temperature_friction,
     asymmetric_friction. fp = friction_params(PF)."""
-    f_v, f_c, v_eps, strib_on, f_s, v_s, ldf_on, mu, tf_on, c_T, T_ref, af_on, d_c, d_v = fp
+    (f_v, f_c, v_eps, strib_on, f_s, v_s, ldf_on, mu, tf_on, c_T, T_ref, af_on, d_c, d_v,
+     delta, mu_v, c_Tv) = fp
     f = viscous_coulomb_friction(v, f_v, f_c, v_eps)
     if strib_on != 0.0:
-        f += stribeck_torque(v, f_s, v_s, v_eps)
+        f += stribeck_torque(v, f_s, v_s, v_eps, delta)
     if ldf_on != 0.0:
-        f += load_dependent_friction_torque(v, T, mu, v_eps)
+        f += load_dependent_friction_torque(v, T, mu, v_eps, mu_v)
     if tf_on != 0.0:
-        f += temperature_friction_torque(v, temp_joint, c_T, T_ref, v_eps)
+        f += temperature_friction_torque(v, temp_joint, c_T, T_ref, v_eps, c_Tv)
     if af_on != 0.0:
         f += asymmetric_friction_torque(v, d_c, d_v, v_eps)
     return f

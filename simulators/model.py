@@ -47,11 +47,14 @@ def pack_params(config: EmulatorConfig, kp_pos: float = 0.0) -> np.ndarray:
     pf[K.HYST_ON] = 1.0 if (config.hysteresis and k_h != 0.0) else 0.0
     if "stribeck" in fx:
         pf[K.STRIB_ON], pf[K.F_S], pf[K.V_S] = 1.0, fx["stribeck"]["f_s"], fx["stribeck"]["v_s"]
+        pf[K.STRIB_DELTA] = fx["stribeck"]["delta"]
     if "load_dependent_friction" in fx:
         pf[K.LDF_ON], pf[K.MU] = 1.0, fx["load_dependent_friction"]["mu"]
+        pf[K.MU_V] = fx["load_dependent_friction"]["mu_v"]
     if "temperature_friction" in fx:
         e = fx["temperature_friction"]
         pf[K.TF_ON], pf[K.C_T], pf[K.T_REF] = 1.0, e["c_T"], e["T_ref"]
+        pf[K.C_TV] = e["c_Tv"]
     if "asymmetric_friction" in fx:
         e = fx["asymmetric_friction"]
         pf[K.AF_ON], pf[K.AF_DC], pf[K.AF_DV] = 1.0, e["d_c"], e["d_v"]

@@ -22,7 +22,7 @@ EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps"
 
 
 def hysteretic_mass_spring(seed: int, duration: float = 8.0, fs: float = 750.0,
-                           noise: float = 2e-6, scale: float = 1.0, f_max: float = 60.0
+                           noise: float = 5e-7, scale: float = 1.0, f_max: float = 60.0
                            ) -> RunData:
     """m·ÿ + c·ẏ + k·y + z = F, ż = α·ẏ − β·(γ·|ẏ|·z + δ·ẏ·|z|) with Noël & Schoukens's values
     (m 2 kg, c 10 N·s/m, k 5e4 N/m, α 5e4 N/m, β 1e3 1/m, γ 0.8, δ −1.1); F a random-phase

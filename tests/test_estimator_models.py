@@ -110,6 +110,8 @@ def test_effect_columns_are_the_vocabulary_terms_at_unit_magnitude():
     assert np.allclose(col["A_cos"], np.cos(12 * s["q"]))
     assert np.allclose(col["drift"], s["t"]) and np.allclose(col["c0"], 1.0)
     assert np.allclose(col["c_T"], fx.temperature_friction_torque(s["qd"], 30.0, 1.0, 40.0, P.v_eps))
+    assert np.allclose(col["c_Tv"], (40.0 - 30.0) * s["qd"])
+    assert np.allclose(col["mu_v"], np.abs(s["torque"]) * s["qd"])
     assert np.allclose(col["mu"], fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, P.v_eps))
     assert np.allclose(col["delay"], -s["torque_rate"])
     assert np.allclose(col["d_v"], fx.asymmetric_friction_torque(s["qd"], 0.0, 1.0, P.v_eps))

@@ -52,7 +52,8 @@ def test_unknown_effect_and_parameter_are_refused_by_name():
         resolve_effects({"cogging": {}})
     with pytest.raises(ValueError, match="f_s"):
         resolve_effects({"stribeck": {"fs": 1.0}})
-    assert resolve_effects({"stribeck": {"f_s": 10}})["stribeck"] == {"f_s": 10.0, "v_s": 6e-3}
+    assert resolve_effects({"stribeck": {"f_s": 10}})["stribeck"] == {"f_s": 10.0, "v_s": 6e-3,
+                                                                 "delta": 2.0}
     for e in VOCABULARY.values():
         assert e.magnitude in e.defaults()
 

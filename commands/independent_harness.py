@@ -1,0 +1,324 @@
+"""The gap diagnosis scored blind on independently written rig models (validation_rigs/), never
+tuned on: `rig validate-diagnosis --independent` and bench/bench_diagnosis.py run it.
+
+The rigs share no code with the emulator or with core/terms.py, core/effects.py: their own
+integrators, friction laws (with presliding or stiction at reversals), transmissions, sensors,
+scheme profiles, and for every effect of the vocabulary several functional forms (a Stribeck
+curve with exponent 1, 2 or a Lorentzian; temperature acting additively or multiplicatively;
+…), plus effects outside the vocabulary. Each variant is one rig at one set of sensors (sample
+rate, encoder step, torque noise) and one campaign size (8 + 4 runs, or 4 + 2).
+
+A campaign, as a test campaign runs it: schemes 1 and 2 at 300 and 3000 r/min in both
+directions and scheme 3 in both senses; training and held-out runs each hold both directions and
+both speeds; every run has its own seed and its own gearbox temperature (15–60 °C). The runs
+carry their sensors' metadata (run format `sensors`), as a real rig's runs would. The nominal
+models are the ones a user of these rigs would write down: Eq. 4 with the measured load for the
+output side and the elastic law (Eq. 5) for the twist–torque law (the rigs' transmissions are
+elastic unless an effect is injected).
+
+Effect-to-noise ratio (ENR): the injected form is scaled linearly so that the RMS over the
+campaign of its contribution — the change of the measured T − τ_L for output-side and sensor
+effects, of k·Δ (the twist through the rig's stiffness, fitted on its no-effect truth) for
+transmission effects, between the same-seed runs with and without it — divided by the noise of
+that law (√(σ_T² + σ_L²), resp. √(σ_T² + (k·step_q)²/12)) is the requested value.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from commands.diagnosis_harness import NOT_EXPLAINED
+
+TRANSMISSION_EFFECTS = ("backlash", "hysteresis")
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One rig model at one set of sensors and one campaign size."""
+    name: str
+    rig: str
+    """Module of validation_rigs."""
+    sensors: dict[str, float] = field(default_factory=dict)
+    """Arguments of the rig's SensorSpec."""
+    few_runs: bool = False
+    """4 training + 2 held-out runs instead of 8 + 4."""
+
+
+VARIANTS: tuple[Variant, ...] = (
+    Variant("A: 20 Hz, 0.01° encoder", "rig_a",
+            {"sample_rate_hz": 20.0, "encoder_res_deg": 0.01}),
+    Variant("B: 100 Hz, 0.001° encoder", "rig_b",
+            {"sample_rate_hz": 100.0, "encoder_res_deg": 0.001}),
+    Variant("B: 10 Hz, 0.02° encoder, 4+2 runs", "rig_b",
+            {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 400.0},
+            few_runs=True),
+    Variant("A: 1 kHz, 0.001° encoder", "rig_a",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.001, "torque_noise": 300.0}),
+)
+
+# (scheme, motor speed [r/min], direction, training?)
+CAMPAIGN = ((1, 300, 1, True), (1, 3000, -1, True), (2, 300, -1, True), (2, 3000, 1, True),
+            (1, 3000, 1, True), (2, 300, 1, True), (3, None, 1, True), (3, None, -1, True),
+            (1, 300, -1, False), (2, 3000, -1, False), (3, None, 1, False),
+            (3, None, -1, False))
+FEW_RUNS = ((1, 300, 1, True), (1, 3000, -1, True), (2, 3000, 1, True), (3, None, -1, True),
+            (1, 3000, 1, False), (3, None, 1, False))
+
+
+def rig_module(name: str):
+    return importlib.import_module(f"validation_rigs.{name}")
+
+
+def simulate_campaign(variant: Variant, seed: int, effects: dict[str, dict] | None = None,
+                      periods: int = 3) -> tuple[list, list, list]:
+    """(train RunData, test RunData, every run's RigRun) of one campaign of `variant`."""
+    from core.run import RunData
+    mod = rig_module(variant.rig)
+    spec = mod.SensorSpec(**variant.sensors)
+    plan = FEW_RUNS if variant.few_runs else CAMPAIGN
+    temps = np.random.default_rng(seed).uniform(15.0, 60.0, len(plan))
+    train, test, raw = [], [], []
+    for i, (scheme, rpm, direction, is_train) in enumerate(plan):
+        rr = mod.simulate_run(scheme, rpm, direction, float(temps[i]), effects or {},
+                              seed=10_000 * seed + i, sensors=spec, periods=periods)
+        raw.append(rr)
+        run = RunData(samples=rr.samples.copy(), meta=dict(rr.meta))
+        (train if is_train else test).append(run)
+    return train, test, raw
+
+
+def _stiffness(raw: list) -> float:
+    """The rig's transmission stiffness [N·m/rad], fitted on its no-effect truth."""
+    tw = np.concatenate([r.truth["twist"].to_numpy() for r in raw])
+    tq = np.concatenate([r.truth["torque"].to_numpy() for r in raw])
+    return float(tw @ tq / (tw @ tw)) if tw @ tw > 0 else 0.0
+
+
+def contribution_enr(variant: Variant, seed: int, effect: str, form: str,
+                     base_raw: list | None = None) -> float:
+    """ENR of `effect` in `form` at scale 1 on the campaign of `seed` (module docstring)."""
+    if base_raw is None:
+        base_raw = simulate_campaign(variant, seed)[2]
+    with_raw = simulate_campaign(variant, seed, {effect: {"form": form, "scale": 1.0}})[2]
+    spec = base_raw[0].meta["sensors"]
+    sig_t = float(spec["torque"]["noise_sd"])
+    if effect in TRANSMISSION_EFFECTS:
+        k = _stiffness(base_raw)
+        d = np.concatenate([k * (w.truth["twist"].to_numpy() - b.truth["twist"].to_numpy())
+                            for w, b in zip(with_raw, base_raw)])
+        step = float(spec["q"].get("resolution", 0.0))
+        noise = np.sqrt(sig_t ** 2 + (k * step) ** 2 / 12.0)
+    else:
+        def target(r):
+            s = r.samples
+            return s["torque"].to_numpy() - s["torque_load"].to_numpy()
+        d = np.concatenate([target(w) - target(b) for w, b in zip(with_raw, base_raw)])
+        sig_l = float(spec.get("torque_load", {}).get("noise_sd", 0.0))
+        noise = np.sqrt(sig_t ** 2 + sig_l ** 2)
+    d = d[np.isfinite(d)]
+    return float(np.sqrt(np.mean(d ** 2)) / noise) if d.size else 0.0
+
+
+def _law_effects(rep: dict) -> dict[str, list[str]]:
+    models = rep["verdict"].get("effect_models", {})
+    out = {"output": [], "transmission": []}
+    for e in rep["verdict"]["effects"]:
+        law = models.get(e, rep["baseline"]["model"])
+        out["transmission" if law != rep["baseline"]["model"] else "output"].append(e)
+    return out
+
+
+def _law_shrinkages(rep: dict) -> list[tuple[float, float]]:
+    """(realised, predicted) held-out shrinkage of each law that chose an effect."""
+    out = []
+    for r in (rep, rep.get("transmission")):
+        if r and r["verdict"]["effects"]:
+            sh = r["shrinkage"]["overall"]
+            out.append((sh["shrinkage"], sh["predicted_from_training"]))
+    return out
+
+
+def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
+             enr: float, kind: str) -> dict[str, Any]:
+    """One campaign simulated with `effect` in `form` scaled to `enr` (none: nothing) and
+    diagnosed blind."""
+    from estimator.diagnosis import diagnose
+    effects, realised = {}, 0.0
+    if effect is not None:
+        base_raw = simulate_campaign(variant, seed)[2]
+        unit = contribution_enr(variant, seed, effect, form, base_raw)
+        scale = enr / unit if unit > 0 else 1.0
+        effects = {effect: {"form": form, "scale": scale}}
+        realised = unit * scale
+    train, test, _ = simulate_campaign(variant, seed, effects)
+    t0 = time.perf_counter()
+    rep = diagnose(train, test, "eq4", transmission="eq5")
+    seconds = time.perf_counter() - t0
+    laws = _law_effects(rep)
+    law_of_truth = "transmission" if effect in TRANSMISSION_EFFECTS else "output"
+    first = laws[law_of_truth][0] if effect and laws[law_of_truth] else None
+    return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
+            "form": form, "enr": enr, "enr_realised": realised,
+            "status": rep["verdict"]["status"], "effects": list(rep["verdict"]["effects"]),
+            "laws": laws, "named_first": first,
+            "extra": [e for e in rep["verdict"]["effects"] if e != effect],
+            "shrinkages": _law_shrinkages(rep), "seconds": seconds}
+
+
+def cells_for(variant: Variant, seeds: list[int], enrs: tuple[float, ...],
+              none_per_seed: int = 2) -> list[tuple]:
+    """The cells of one variant: nothing injected, every form of every vocabulary effect at
+    every ENR, every out-of-vocabulary effect of the rig at ENR 2."""
+    mod = rig_module(variant.rig)
+    cells = []
+    for s in seeds:
+        for j in range(none_per_seed):
+            cells.append((variant, 1000 * j + s, None, None, 0.0, "none"))
+        for eff, forms in mod.EFFECT_FORMS.items():
+            for form in forms:
+                kind = "oov" if eff in mod.OUT_OF_VOCABULARY else "single"
+                for enr in ((2.0,) if kind == "oov" else enrs):
+                    cells.append((variant, s, eff, form, enr, kind))
+    return cells
+
+
+def _run(args: tuple) -> dict:
+    return run_cell(*args)
+
+
+def validate_independent(seeds: int = 1, first_seed: int = 1, quick: bool = False,
+                         workers: int = 2, variants: tuple[Variant, ...] | None = None,
+                         progress=None) -> dict:
+    """Every cell of every variant, scored; JSON-ready."""
+    vs = variants or (VARIANTS[:2] if quick else VARIANTS)
+    enrs = (1.0,) if quick else (0.5, 1.0, 2.0)
+    todo = []
+    for v in vs:
+        todo += cells_for(v, list(range(first_seed, first_seed + seeds)), enrs,
+                          none_per_seed=1 if quick else 2)
+    cells = []
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for i, c in enumerate(pool.map(_run, todo)):
+            cells.append(c)
+            if progress:
+                progress(i + 1, len(todo))
+    return {"cells": cells, "scores": score(cells), "seconds": time.perf_counter() - t0,
+            "variants": [v.name for v in vs], "seeds": seeds, "first_seed": first_seed}
+
+
+def score(cells: list[dict]) -> dict[str, Any]:
+    """The issue's figures on the independent cells."""
+    out: dict[str, Any] = {}
+    none = [c for c in cells if c["kind"] == "none"]
+    single = [c for c in cells if c["kind"] == "single"]
+    oov = [c for c in cells if c["kind"] == "oov"]
+    out["none_verdict"] = float(np.mean([c["status"] == "none" for c in none])) if none else None
+    out["top1"] = {}
+    for enr in sorted({c["enr"] for c in single}):
+        cs = [c for c in single if c["enr"] == enr]
+        out["top1"][str(enr)] = float(np.mean([c["named_first"] == c["effect"] for c in cs]))
+    ge1 = [c for c in single if c["enr"] >= 1.0]
+    out["top1_enr_ge_1"] = (float(np.mean([c["named_first"] == c["effect"] for c in ge1]))
+                            if ge1 else None)
+    fam: dict[str, dict[str, list]] = {}
+    for c in ge1:
+        fam.setdefault(c["effect"], {}).setdefault(c["form"], []).append(
+            c["named_first"] == c["effect"])
+    out["top1_by_form_enr_ge_1"] = {e: {f: float(np.mean(v)) for f, v in forms.items()}
+                                    for e, forms in fam.items()}
+    out["top1_by_family_enr_ge_1"] = {e: float(np.mean([x for v in forms.values() for x in v]))
+                                      for e, forms in fam.items()}
+    named_wrong = [bool(c["extra"]) for c in none + single]
+    out["extra_effect_named"] = float(np.mean(named_wrong)) if named_wrong else None
+    out["oov_not_explained"] = (float(np.mean([c["status"] in NOT_EXPLAINED for c in oov]))
+                                if oov else None)
+    err = [abs(a - p) for c in single for a, p in c["shrinkages"]]
+    out["shrinkage_abs_error_median"] = float(np.median(err)) if err else None
+    out["by_variant"] = {}
+    for v in sorted({c["variant"] for c in cells}):
+        cv = [c for c in cells if c["variant"] == v]
+        s1 = [c for c in cv if c["kind"] == "single" and c["enr"] >= 1.0]
+        nv = [c for c in cv if c["kind"] == "none"]
+        out["by_variant"][v] = {
+            "top1_enr_ge_1": float(np.mean([c["named_first"] == c["effect"] for c in s1]))
+            if s1 else None,
+            "none_verdict": float(np.mean([c["status"] == "none" for c in nv])) if nv else None,
+            "median_seconds": float(np.median([c["seconds"] for c in cv]))}
+    return out
+
+
+TARGETS = [("nothing withheld -> none", lambda s: s["none_verdict"], 0.95, ">="),
+           ("top-1 at ENR 0.5", lambda s: s["top1"].get("0.5"), 0.75, ">="),
+           ("top-1 at ENR >= 1", lambda s: s["top1_enr_ge_1"], 0.90, ">="),
+           ("worst family top-1 at ENR >= 1",
+            lambda s: min(s["top1_by_family_enr_ge_1"].values())
+            if s["top1_by_family_enr_ge_1"] else None, 0.90, ">="),
+           ("an effect named that was not withheld", lambda s: s["extra_effect_named"], 0.05,
+            "<="),
+           ("out of vocabulary -> unexplained/partly", lambda s: s["oov_not_explained"], 0.80,
+            ">="),
+           ("median |predicted - realised shrinkage|",
+            lambda s: s["shrinkage_abs_error_median"], 0.05, "<=")]
+
+
+def _fmt(x: Any) -> str:
+    return "   n/a" if x is None else f"{x:6.3f}"
+
+
+def format_side_by_side(own: dict | None, ind: dict) -> str:
+    """The independent figures against their targets, beside the own-emulator harness's
+    (when given), with the gap between them."""
+    s = ind["scores"]
+    lines = [f"independent validation rigs ({', '.join(ind['variants'])}); scoring seeds "
+             f"{ind['first_seed']}..{ind['first_seed'] + ind['seeds'] - 1}, "
+             f"{len(ind['cells'])} campaigns, {ind['seconds']:.0f} s", ""]
+    head = f"{'figure':42} {'own':>6} {'indep.':>6} {'gap':>6}  target"
+    lines += [head, "-" * len(head)]
+    own_s = (own or {}).get("scores") or {}
+    own_map = {"nothing withheld -> none": own_s.get("none_verdict"),
+               "top-1 at ENR 0.5": (own_s.get("top1") or {}).get("0.5"),
+               "top-1 at ENR >= 1": (np.mean([own_s["top1"][k] for k in ("1.0", "2.0")
+                                              if k in own_s.get("top1", {})])
+                                     if own_s.get("top1") else None),
+               "an effect named that was not withheld": own_s.get("false_alarm"),
+               "out of vocabulary -> unexplained/partly": own_s.get("oov_unexplained"),
+               "median |predicted - realised shrinkage|":
+                   own_s.get("shrinkage_abs_error_median")}
+    for name, get, target, op in TARGETS:
+        try:
+            v = get(s)
+        except (KeyError, ValueError):
+            v = None
+        o = own_map.get(name)
+        gap = (o - v) if (o is not None and v is not None) else None
+        ok = v is not None and (v >= target if op == ">=" else v <= target)
+        lines.append(f"{name:42} {_fmt(o)} {_fmt(v)} {_fmt(gap)}  {op} {target:<5} "
+                     f"{'ok' if ok else 'NO'}")
+    if own_map["top-1 at ENR >= 1"] is not None and s["top1_enr_ge_1"] is not None:
+        g = own_map["top-1 at ENR >= 1"] - s["top1_enr_ge_1"]
+        lines.append(f"{'own-emulator minus independent top-1':42} {'':6} {'':6} {g:6.3f}  "
+                     f"<= 0.05  {'ok' if g <= 0.05 else 'NO'}")
+    lines += ["", "top-1 at ENR >= 1 by family and form:"]
+    for e, forms in sorted(s["top1_by_form_enr_ge_1"].items()):
+        lines.append(f"  {e:26} " + ", ".join(f"{f} {v:.2f}" for f, v in forms.items()))
+    lines += ["", "by variant:"]
+    for v, d in s["by_variant"].items():
+        lines.append(f"  {v:40} top-1 {_fmt(d['top1_enr_ge_1'])}  none {_fmt(d['none_verdict'])}"
+                     f"  median diagnosis {d['median_seconds']:.1f} s")
+    missed = [c for c in ind["cells"] if (c["kind"] == "single" and c["enr"] >= 1.0
+                                          and c["named_first"] != c["effect"])
+              or (c["kind"] == "none" and c["status"] != "none")]
+    if missed:
+        lines += ["", f"cells missed ({len(missed)}):"]
+        for c in missed[:40]:
+            lines.append(f"  {c['variant'][:10]:10} seed {c['seed']:>5} {c['kind']:6} "
+                         f"{str(c['effect']):24} {str(c['form']):14} ENR {c['enr']:.1f}: "
+                         f"{c['status']} {c['effects']}")
+    return "\n".join(lines)
