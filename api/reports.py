@@ -237,6 +237,8 @@ def diagnosis_html(d: dict[str, Any], plots: dict[str, bytes]) -> str:
     parts = ["<section id=\"sim-to-real-gap\"><h2>Sim-to-real gap</h2>",
              f"<h3 class=\"{cls}\">Verdict: {_e(status)}"
              + (f" — {_e(effects)}" if effects else "") + "</h3>"]
+    if v.get("summary"):
+        parts.append(f"<p>{_e(v['summary'])}</p>")
     laws = v.get("laws") or {}
     if laws:
         rows = [{"model law": law, "status": x.get("status"),

@@ -247,8 +247,7 @@ def diagnose_hidden_effect(seed: int) -> str:
         lines.append(f"   candidate {c['effect']:<25} held-out RMSE {c['rmse_test']:.0f}  "
                      f"shrinkage {c['shrinkage']:+.3f}  {'significant' if c['significant'] else ''}")
     v = rep["verdict"]
-    lines.append(f"   verdict: {v['status']}, effects {v['effects']}, held-out RMSE after "
-                 f"{v['rmse_test_after']:.0f} N·m")
+    lines.append(f"   verdict: {v['summary']}")
     lines.append(f"   truth: the campaign hid `{hidden}` "
                  + ("— named correctly" if v["effects"][:1] == [hidden] else "— NOT named"))
     return "\n".join(lines)

@@ -93,8 +93,7 @@ def format_text(rep: dict) -> str:
     for name, why in rep["skipped"].items():
         lines.append(f"  {name:<24} not tried: {why}")
     sh = rep["shrinkage"]["overall"]
-    lines.append(f"verdict: {v['status']}" + (f" — {' + '.join(v['effects'])}" if v["effects"]
-                                               else ""))
+    lines.append(f"verdict: {v['summary']}")
     lines.append(f"held-out RMSE {sh['rmse_before']:.4g} -> {sh['rmse_after']:.4g} (shrinkage "
                  f"{sh['shrinkage']:.3f}, 95 % CI {sh['ci95'][0]:.3f}..{sh['ci95'][1]:.3f}; "
                  f"predicted from training {sh['predicted_from_training']:.3f})")

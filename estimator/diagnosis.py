@@ -73,7 +73,7 @@ from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage,
                                        cross_correlation, spectral_line, whiteness)
-from estimator.diagnosis_verdict import merge_transmission
+from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, linear_model, model_from_spec
 from estimator.preprocess import PrepOptions, prepare
@@ -301,6 +301,29 @@ def _series(pooled: dict, n_train: int, model: LinearModel, e0: np.ndarray, e1: 
                         for r in flagged if r["family"] in fams]}
 
 
+def lag_corrected(run: RunData) -> RunData:
+    """The run with every channel whose sensor the metadata says lags (`sensors[ch].lag_s`,
+    docs/run-format.md) moved back by that lag (linear interpolation; the last lag's samples
+    become missing): a known fieldbus latency is a property of the sensor, not a gap of the
+    model. The run itself is left alone."""
+    sensors = run.meta.get("sensors") if isinstance(run.meta, dict) else None
+    lags = {ch: float(spec.get("lag_s", 0.0)) for ch, spec in (sensors or {}).items()
+            if isinstance(spec, dict) and ch in run.samples.columns and ch != "t"}
+    lags = {ch: d for ch, d in lags.items() if d > 0}
+    if not lags:
+        return run
+    df = run.samples.copy()
+    t = run.t
+    for ch, d in lags.items():
+        y = df[ch].to_numpy(dtype=float)
+        ok = np.isfinite(y)
+        df[ch] = np.interp(t + d, t[ok], y[ok], right=np.nan)
+    meta = dict(run.meta)
+    meta["sensors"] = {ch: ({**spec, "lag_s": 0.0} if ch in lags else spec)
+                       for ch, spec in sensors.items()}
+    return RunData(samples=df, meta=meta)
+
+
 def working_rate(runs: Sequence[RunData], prep: PrepOptions, opt: DiagnosisOptions
                  ) -> PrepOptions:
     """`prep` with its decimation raised so that the runs are analysed at no more than
@@ -345,6 +368,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     if not train_runs or not test_runs:
         raise ValueError("a diagnosis needs at least one training run and one held-out run")
     opt = options or DiagnosisOptions()
+    train_runs = [lag_corrected(r) for r in train_runs]
+    test_runs = [lag_corrected(r) for r in test_runs]
     prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)
     model = base_model(base)
     avail = set(_available(train_runs[0], prep))
@@ -531,6 +556,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
           if transmission is not None and model.kind != "transmission" else None)
     if tx is not None:
         merge_transmission(report, tx.report)
+    report["verdict"]["summary"] = verdict_summary(report)
     return Diagnosis(report=report, baseline=_as_fit(base_fit, "baseline", {}),
                      final=_as_fit(cur, "final", shapes) if chosen else None, transmission=tx)
 

@@ -41,3 +41,26 @@ def combined_status(statuses: list[str]) -> str:
     if any(st in ("explained", "partly_explained") for st in statuses):
         return "partly_explained"
     return "unexplained"
+
+
+def verdict_summary(report: dict) -> str:
+    """The verdict in one sentence, the same in the text output and the JSON (verdict.summary):
+    what was chosen and how far it shrinks the held-out error, what structure is left, and,
+    when nothing was chosen, that no candidate is a cause."""
+    v = report["verdict"]
+    sh = report["shrinkage"]["overall"]
+    left = v.get("structured_share_after", 0.0)
+    if v["status"] == "none":
+        return ("none — the residual is at the noise floor (no candidate effect improves the "
+                "held-out error significantly)")
+    if not v["effects"]:
+        return (f"unexplained — no effect of the vocabulary explains the gap "
+                f"({v.get('structured_share_before', 0.0):.0%} of the held-out residual lies "
+                f"above the noise floor); the flagged regions say where it lies")
+    named = " + ".join(v["effects"])
+    text = (f"{v['status']} — {named}: held-out RMSE {sh['rmse_before']:.4g} -> "
+            f"{sh['rmse_after']:.4g} (shrinkage {sh['shrinkage']:.3f}, predicted from training "
+            f"{sh['predicted_from_training']:.3f})")
+    if v["status"] == "partly_explained":
+        text += f"; structure left: {left:.0%} of the residual above the noise floor"
+    return text

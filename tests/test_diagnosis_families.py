@@ -127,3 +127,17 @@ def test_combined_status_never_reads_as_a_cause_when_structure_remains():
     assert combined_status(["explained", "unexplained"]) == "partly_explained"
     assert combined_status(["partly_explained", "none"]) == "partly_explained"
     assert combined_status(["unexplained", "none"]) == "unexplained"
+
+
+def test_a_known_sensor_lag_is_taken_out_before_the_diagnosis():
+    from estimator.diagnosis import lag_corrected
+    t = np.arange(0, 10, 0.01)
+    true = np.sin(t)
+    lagged = np.sin(t - 0.05)                        # the torque arrives 50 ms late
+    run = RunData(pd.DataFrame({"t": t, "q": true, "torque": lagged}),
+                  {"sensors": {"torque": {"noise_sd": 1.0, "lag_s": 0.05}}})
+    out = lag_corrected(run)
+    ok = np.isfinite(out.samples["torque"])
+    assert np.max(np.abs(out.samples["torque"][ok] - true[ok])) < 1e-3
+    assert out.meta["sensors"]["torque"]["lag_s"] == 0.0 and run.samples["torque"][5] == lagged[5]
+    assert lag_corrected(out) is out                 # nothing left to take out
