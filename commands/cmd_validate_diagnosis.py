@@ -1,5 +1,7 @@
 """`rig validate-diagnosis`: the gap diagnosis scored blind on emulated campaigns with withheld
-effects (the campaigns and the scoring live in commands.diagnosis_harness)."""
+effects (commands.diagnosis_harness, where its thresholds were tuned), and with `--independent`
+on the independently written rig models it was never tuned on (commands.independent_harness),
+the two tables side by side with the gap between them."""
 
 from __future__ import annotations
 
@@ -17,6 +19,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "overlap the tuning seeds 101-112)")
     p.add_argument("--json", action="store_true", help="print the scores as JSON")
     p.add_argument("--no-emps", action="store_true", help="skip the EMPS records")
+    p.add_argument("--independent", action="store_true",
+                   help="also score on the independent validation rigs (validation_rigs/) and "
+                        "print both tables side by side with the gap")
+    p.add_argument("--workers", type=int, default=2,
+                   help="processes for the independent campaigns (default 2)")
     p.add_argument("--tuning", action="store_true",
                    help="only the tuning campaigns (seeds 101-104) of the transmission law's "
                         "threshold: print what the diagnosis measures there")
@@ -35,8 +42,25 @@ def run(args: argparse.Namespace) -> int:
         import sys
         print(f"rig validate-diagnosis: {exc}", file=sys.stderr)
         return 2
+    ind = None
+    if args.independent:
+        from commands.independent_harness import validate_independent
+        ind = validate_independent(seeds=args.seeds or 1, first_seed=args.first_seed,
+                                   quick=args.quick, workers=args.workers,
+                                   progress=_progress)
     if args.json:
-        print(json.dumps(res, indent=2, default=float))
+        print(json.dumps({**res, "independent": ind} if ind else res, indent=2, default=float))
     else:
         print(format_report(res))
+        if ind:
+            from commands.independent_harness import format_side_by_side
+            print()
+            print(format_side_by_side(res, ind))
     return 0
+
+
+def _progress(done: int, total: int) -> None:
+    import sys
+    if sys.stderr.isatty():
+        print(f"\rindependent campaigns {done}/{total}", end="" if done < total else "\n",
+              file=sys.stderr, flush=True)
