@@ -2,8 +2,8 @@
 effect is injected but withheld from the model, the diagnosis run blind on them, and the scores.
 `rig validate-diagnosis [--quick] [--json]` and bench/bench_diagnosis.py run it.
 
-It lives with the emulator because it drives it; the diagnosis itself (estimator.diagnosis) never
-imports the emulator and only ever sees the runs.
+It sits above every layer (commands/): it drives the emulator and the diagnosis, which itself
+(estimator.diagnosis) never imports the emulator and only ever sees the runs.
 
 A campaign, as a real test campaign runs it: training and held-out runs each hold both directions
 of motion and both motor speeds — training scheme 1 at 300 r/min (+1) and 3000 r/min (−1), scheme 2
@@ -24,48 +24,8 @@ temperature-dependent friction has cold and warm runs to show in).
 Scheme 3 runs 6 periods of its 20 s trajectory (124 s with the rests; the scheme's design is 15)
 sampled at 50 Hz (the design's 1 kHz would make the harness slow).
 
-Why 6 periods (measured on the campaign-design tuning seeds CAMPAIGN_TUNING_SEEDS, 101–110, never
-on the scoring seeds 1..n): the figure is the twist–torque law's predicted − realised shrinkage
-over the cells (backlash and hysteresis at ENR 0.5, 1, 2) where the law chose an effect. With 3
-periods (the earlier design) hysteresis's errors had sd 0.044 and reached 0.089 (21 of 30 cells
-within 0.05); backlash's mean −0.023, max 0.049. The cause is the output encoder's step (0.01°,
-k_u·step ≈ 2.2 kN·m in the law) where scheme 3 moves slowly: in its rests the joint sits on one
-step (a constant rounding error, drawn per run within ±1.1 kN·m) and about 30 % of its samples
-lie near reversals (|q̇| < 2e-3 rad/s), where the rounding error changes slowly and passes the
-law's low-pass. Its size depends on where the run sits on the encoder grid, which drifts from
-period to period (the per-period RMS of the law's residual after the right effect ranged
-285–416 N·m within one run), so the held-out scheme-3 run carries another noise level than the
-training one. With the encoder made exact (enc_res 1e-9, same seeds) hysteresis's errors fall to
-sd 0.004, max 0.012; zero torque noise, or one joint temperature for every run, leave them as
-they are (sd 0.046, 0.044). Hence more periods per scheme-3 run (more of the grid averaged within
-each run), not another sampling rate (3 periods at 200 Hz: sd 0.053, max 0.113). Per design
-(hysteresis | backlash: sd, max |error|): two 3-period scheme-3 runs per set (10 runs) 0.032,
-0.066 | 0.014, 0.042; scheme 3 in both directions in each set 0.031, 0.098 | 0.020, 0.053;
-4 periods 0.032, 0.085 | 0.019, 0.044; 5 periods 0.024, 0.046 | 0.014, 0.041; 6 periods
-0.015, 0.035 | 0.010, 0.034 (59 of 59 cells within 0.05, median |error| 0.011); 7 periods
-0.010, 0.024 | 0.008, 0.034; 8 periods 0.010, 0.026 | 0.008, 0.028.
-The same encoder step bounds the length from above: it makes a purely elastic transmission
-look slightly hysteretic (in the elastic world with nothing injected the hysteresis candidate
-shrinks the held-out error by 0.01–0.02 in nearly every campaign; with an exact encoder by
-≤ 0.002), and the more scheme-3 data, the more significant that is. Elastic-world campaigns
-with nothing injected, seeds 101–110, hysteresis named (held-out gain z > 3): 0 with 3 periods
-(z ≤ 2.2), 1 with 5, 0 with 6 (z 1.3–3.0; 1 of 12 with seeds 111–112 added), 3 with 7, 6 with 8.
-Of 3–8 periods, 6 is the only length that kept both figures on those seeds; on the harness's
-cells with seeds 101–103 (none cells 101–112) every target was met (top-1 at ENR 0.5 0.917, false
-alarms 0.000, shrinkage within 0.05 1.000, median 0.009). The false-alarm margin is thin
-(five of the ten elastic campaigns had z 2.7–3.0): the lasting remedy lies in the diagnosis
-(a twist free of the encoder step, or a materiality threshold on the law's shrinkage).
-Scored once with 6 periods on seeds 1..12 (`rig validate-diagnosis`, 2026-11-21): shrinkage
-within 0.05 in every cell (median 0.010), but false alarms 0.167 — hysteresis named in 3 of
-the 6 elastic-world campaigns with nothing injected (seeds 3, 4, 6: held-out shrinkage
-0.017–0.022, z 3.1–3.3), the artefact above. The remedy went into the diagnosis: a minimum
-held-out shrinkage of the twist–torque law (DiagnosisOptions.transmission_min_shrinkage = 0.04,
-set on the no-effect campaigns of seeds 101–112: 0.010–0.026 there, 0.053–0.073 for backlash at
-ENR 0.5). Because seeds 1..12 had been looked at, the harness was re-scored on those and on
-fresh seeds 201–212 (`--first-seed 201`), every target met on both: top-1 at ENR 0.5
-0.958 / 0.917, at ENR 1 and 2 1.000, diagonal 1.000, false alarms 0.000, out of vocabulary →
-unexplained 1.000, pairs 1.000, overlap 1.000, shrinkage within 0.05 1.000 (median 0.010 /
-0.008).
+Why 6 periods, and how the harness was scored: docs/diagnosis.md (measurements on the
+campaign-design tuning seeds, never on the scoring seeds).
 
 Effect-to-noise ratio (ENR) of an injected effect = RMS over the campaign's runs of the effect's
 contribution to the measured torque channel / the torque sensor noise sd (JointParams.torque_noise,
@@ -303,7 +263,10 @@ EFFECT_REGIONS: dict[str, tuple[str, ...]] = {
     "hysteresis": ("scheme", "load", "reversal"),
     "backlash": ("reversal", "load", "scheme"),
     "asymmetric_friction": ("speed", "power", "scheme"),
-    "periodic_disturbance": ("time", "scheme"),
+    # a disturbance periodic in time acts alike in every region (what marks it is a spectral
+    # line in time, not a region): any flagged family overlaps it
+    "periodic_disturbance": ("time", "scheme", "reversal", "speed", "load", "power", "angle",
+                             "temperature"),
     "position_stiffness": ("time", "scheme", "angle"),
 }
 """Region families where each injected effect acts (for the overlap score)."""
