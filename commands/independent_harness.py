@@ -51,15 +51,16 @@ class Variant:
 
 
 VARIANTS: tuple[Variant, ...] = (
-    Variant("A: 20 Hz, 0.01° encoder", "rig_a",
+    Variant("two-inertia 20 Hz, 0.01° encoder", "two_inertia",
             {"sample_rate_hz": 20.0, "encoder_res_deg": 0.01}),
-    Variant("B: 100 Hz, 0.001° encoder", "rig_b",
+    Variant("planned-motion 100 Hz, 0.001° encoder", "planned_motion",
             {"sample_rate_hz": 100.0, "encoder_res_deg": 0.001}),
-    Variant("B: 10 Hz, 0.02° encoder, 4+2 runs", "rig_b",
+    Variant("planned-motion 10 Hz, 0.02° encoder, 4+2 runs", "planned_motion",
             {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 400.0},
             few_runs=True),
-    Variant("A: 1 kHz, 0.001° encoder", "rig_a",
-            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.001, "torque_noise": 300.0}),
+    Variant("two-inertia 1 kHz, 0.001° encoder, 20 ms torque lag", "two_inertia",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.001, "torque_noise": 300.0,
+             "torque_lag_s": 0.02}),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
@@ -137,8 +138,9 @@ def _law_effects(rep: dict) -> dict[str, list[str]]:
 def _law_shrinkages(rep: dict) -> list[tuple[float, float]]:
     """(realised, predicted) held-out shrinkage of each law that chose an effect."""
     out = []
-    for r in (rep, rep.get("transmission")):
-        if r and r["verdict"]["effects"]:
+    laws = _law_effects(rep)
+    for r, law in ((rep, "output"), (rep.get("transmission"), "transmission")):
+        if r and laws[law]:
             sh = r["shrinkage"]["overall"]
             out.append((sh["shrinkage"], sh["predicted_from_training"]))
     return out

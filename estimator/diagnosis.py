@@ -204,8 +204,8 @@ def _structure(e: np.ndarray, pooled: dict, blocks: np.ndarray, angle_order: int
             "reasons": reasons}
 
 
-def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, float]
-                 ) -> float | None:
+def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, float],
+                 prep: PrepOptions | None = None) -> float | None:
     """The mean square the law's residual must keep from the sensors alone, from what the runs
     say of them (metadata `sensors`, docs/run-format.md), or None when a run says nothing: the
     torque channel's noise variance, plus for a twist–torque law each encoder's quantisation
@@ -217,12 +217,26 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
         sensors = run.meta.get("sensors")
         if not isinstance(sensors, dict) or "torque" not in sensors:
             return None
-        ms = float(sensors["torque"].get("noise_sd", 0.0)) ** 2
+        # white noise keeps the share of its band the low-pass before decimation lets through
+        fs = float(run.meta.get("sample_rate_hz") or 0.0)
+        kept, cutoff = 1.0, None
+        if prep is not None and fs > 0:
+            cutoff = prep.cutoff_hz or (0.4 * fs / prep.decimate if prep.decimate > 1 else None)
+            if cutoff is not None and (prep.filter_outputs or prep.decimate > 1):
+                kept = min(1.0, cutoff / (0.5 * fs))
+        ms = kept * float(sensors["torque"].get("noise_sd", 0.0)) ** 2
         if model.kind == "transmission":
             k = abs(float(params.get("k_u", params.get("k", 0.0))))
+            # an encoder crossing many steps within the low-pass window averages its rounding
+            # error out; one that creeps keeps it whole
+            speed = (float(np.nanmedian(np.abs(run.channel("qd"))))
+                     if "qd" in run.samples.columns else 0.0)
+            window = 1.0 / (2.0 * cutoff) if kept < 1.0 and cutoff else 0.0
             for ch in ("q", "u"):
                 step = float((sensors.get(ch) or {}).get("resolution", 0.0))
-                ms += (k * step) ** 2 / 12.0
+                if step > 0:
+                    crossed = speed * window / step
+                    ms += (k * step) ** 2 / 12.0 * min(1.0, 1.0 / crossed if crossed > 0 else 1.0)
         total.append(ms)
     return float(np.mean(total)) if total else None
 
@@ -301,6 +315,29 @@ def _series(pooled: dict, n_train: int, model: LinearModel, e0: np.ndarray, e1: 
                         for r in flagged if r["family"] in fams]}
 
 
+def transient_mask(sig: dict, window_s: float) -> np.ndarray:
+    """True on the samples within window_s [s] of one where the joint is at rest or passing
+    through zero speed (|q̇| below 5 % of the campaign's top speed, the regions' "near zero
+    speed"): a start, a stop, a reversal.
+    There a real joint sticks, presslides and breaks away (dynamic friction), its friction at
+    rest is whatever holds it, and no static friction form of the vocabulary models that — it
+    would otherwise pass for a Stribeck rise, or leave structure no candidate can explain."""
+    out = np.zeros(sig["t"].size, dtype=bool)
+    band = 0.05 * float(np.quantile(np.abs(sig["qd"]), 0.99))
+    for r in np.unique(sig["run"]):
+        idx = np.flatnonzero(sig["run"] == r)
+        v, t = sig["qd"][idx], sig["t"][idx]
+        slow = np.abs(v) <= band
+        if not slow.any():
+            continue
+        # dilate the slow samples by window_s on both sides
+        ts = t[slow]
+        lo = np.searchsorted(ts, t - window_s, side="left")
+        hi = np.searchsorted(ts, t + window_s, side="right")
+        out[idx] = hi > lo
+    return out
+
+
 def lag_corrected(run: RunData) -> RunData:
     """The run with every channel whose sensor the metadata says lags (`sensors[ch].lag_s`,
     docs/run-format.md) moved back by that lag (linear interpolation; the last lag's samples
@@ -377,6 +414,11 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         avail &= set(_available(r, prep))
     need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
     pooled = _pool(list(train_runs) + list(test_runs), need, prep, 0)
+    n_transient = 0
+    if model.kind == "output" and opt.transient_s > 0 and "qd" in pooled:
+        steady = ~transient_mask(pooled, opt.transient_s)
+        n_transient = int((~steady).sum())
+        pooled = _slice(pooled, steady)
     is_train = pooled["run"] < len(train_runs)
     tr, te = _slice(pooled, is_train), _slice(pooled, ~is_train)
     if "qd" not in pooled or "torque" not in pooled:
@@ -417,6 +459,10 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     # greedy addition while the held-out gain stays significant: every round re-fits every
     # remaining candidate on top of the current model (its shape searched again: the first
     # round's search saw the other effects' residual too) and re-scores it against that model
+    floor_white = _noise_floor(e_all[~is_train], pooled["run"][~is_train])
+    floor_sensor = sensor_floor(list(test_runs), model, dict(zip(model.param_names,
+                                                                 base_fit.theta)), prep)
+    floor = max(floor_white, floor_sensor or 0.0)
     chosen, steps, cur, rejected = [], [], base_fit, []
     remaining = list(fits)
     first = True
@@ -438,8 +484,15 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         # parsimony: an effect beyond the first must also help consistently across the runs
         # (held-out, and training runs left out one at a time): a one-sided sign test of its
         # per-run gains at opt.parsimony_alpha
+        # materiality: it must remove at least opt.min_structure_share of the structure the
+        # current model leaves above the noise floor (a detail is not the cause of a gap)
+        left = max(float(np.mean(cur.e_test ** 2)) - floor, 0.0)
         best = None
         for n in significant:
+            scored[n]["structure_removed"] = scored[n]["gain"] / left if left > 0 else 0.0
+            if scored[n]["structure_removed"] < opt.min_structure_share:
+                rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
+                continue
             if not chosen:
                 best = n
                 break
@@ -459,10 +512,6 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     e_fin = np.empty_like(e_all)
     e_fin[is_train], e_fin[~is_train] = cur.e_train, cur.e_test
     after = _structure(e_fin, pooled, blocks, angle_order, opt) if chosen else where
-    floor_white = _noise_floor(e_all[~is_train], pooled["run"][~is_train])
-    floor_sensor = sensor_floor(list(test_runs), model, dict(zip(model.param_names,
-                                                                 base_fit.theta)))
-    floor = max(floor_white, floor_sensor or 0.0)
     ms0, ms1 = float(np.mean(base_fit.e_test ** 2)), float(np.mean(cur.e_test ** 2))
     structured_ms = max(ms0 - floor, 0.0)
     removed = (ms0 - ms1) / structured_ms if structured_ms > 0 else 0.0
@@ -519,7 +568,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         "skipped": skipped,
         "ambiguities": [list(a) for a in ambiguities],
         "steps": steps,
-        "rejected_for_parsimony": rejected,
+        "rejected": rejected,
+        "transient_samples_left_out": n_transient,
         "verdict": {"status": status, "effects": chosen, "rmse_test_after": _rmse(cur.e_test),
                     "model": cur.model.name,
                     "shapes": {st["effect"]: st["shape"] for st in steps},

@@ -25,6 +25,9 @@ class DiagnosisOptions:
     max_rate_hz: float = 100.0
     """The diagnosis analyses runs sampled faster than this decimated to it (low-passed first):
     see estimator.diagnosis.working_rate."""
+    transient_s: float = 0.5
+    """The output-side law leaves out the samples within this time [s] of a velocity reversal
+    and of a start from rest (estimator.diagnosis.transient_mask); 0 keeps them."""
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))
@@ -60,6 +63,10 @@ class DiagnosisOptions:
     bw_gamma_ratio_generic: tuple[float, ...] = (-1.5, -1.0, -0.5, 0.0, 0.5, 1.0)
     """γ/β searched besides those shares on a law whose displacement is the position (a
     hysteretic system without a twist channel), with β = 1/(yield fraction · top |q − median|)."""
+    min_structure_share: float = 0.1
+    """A candidate is chosen only when its held-out gain removes at least this share of the
+    mean square the current model leaves above the noise floor (materiality relative to the
+    gap in hand, not to the signal)."""
     parsimony_alpha: float = 0.05
     """An effect beyond the first is kept only when its per-run gains (held-out runs and
     leave-one-run-out training runs) are positive on more runs than chance would give, by a
