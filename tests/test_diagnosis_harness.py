@@ -40,8 +40,8 @@ def test_score_counts_each_figure():
     assert s["pairs_both"] == 1.0
     # overlap: the singles flagged 'speed' count only where 'speed' is the effect's family
     # (stribeck's, whose cell here flagged nothing, and asymmetric_friction's, which counts);
-    # the periodic disturbance acts in every region, so its 'braking' counts too
-    assert s["region_overlap"] == 2 / 9
+    # the periodic disturbance has no region of its own (its spectral line locates it): not scored
+    assert s["region_overlap"] == 1 / 8
     assert s["shrinkage_within_0.05"] < 1.0
     text = format_report({"scores": s, "cells": cells, "seeds_per_cell": 1, "emps": None})
     assert "top-1 at ENR 1" in text and "NO" in text and "cells missed" in text
