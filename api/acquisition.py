@@ -81,7 +81,7 @@ def _emit(event: dict[str, Any]) -> None:
 
 def run_command(spec: dict[str, Any], db_url: str) -> list[str]:
     """The `rig run` command line of an acquisition spec (see AcquisitionManager.start)."""
-    from commands.cmd_run import SCHEME_ARGS
+    from core.schemes import SCHEME_ARGS
     option = {name: "--" + dest.replace("_", "-") for dest, (name, _, _) in SCHEME_ARGS.items()}
     cmd = [sys.executable, "-m", "commands.cli", "run", f"scheme{spec['scheme']}", "--json-progress",
            "--control-stdin", "--db", db_url, "--source", spec["target"]]

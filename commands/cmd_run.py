@@ -14,28 +14,7 @@ from __future__ import annotations
 
 import argparse
 
-SCHEME_ARGS: dict[str, tuple[str, type, str]] = {
-    # option dest: (scheme field, type, help)
-    "speed": ("motor_speed_rpm", float, "motor speed [r/min] (schemes 1, 2; 300 or 3000)"),
-    "direction": ("direction", int, "sense of motion, 1 or -1"),
-    "load": ("load_target", float, "load at the top [N·m] (schemes 1, 2; default 120e3)"),
-    "ramp_rate": ("ramp_rate", float, "load ramp rate [N·m/s] (schemes 1, 2)"),
-    "unload_rate": ("unload_rate", float, "unload rate [N·m/s] (scheme 2)"),
-    "hold_top": ("hold_top", float, "hold at the top load [s] (scheme 1)"),
-    "step": ("step", float, "load step [N·m] (scheme 2; default 10e3)"),
-    "pause": ("pause", float, "pause at each step [s] (scheme 2; default 2)"),
-    "accel_time": ("accel_time", float, "speed ramp time [s] (schemes 1, 2)"),
-    "settle_time": ("settle_time", float, "idle at speed before loading [s] (schemes 1, 2)"),
-    "rest_time": ("rest_time", float, "idle at rest [s]"),
-    "shear": ("shear_target", float, "hydraulic shear while loading [N] (schemes 1, 2)"),
-    "sample_rate": ("sample_rate_hz", float, "sample rate [Hz] (>= 10)"),
-    "order": ("order", int, "Fourier order (scheme 3; default 5)"),
-    "base_freq": ("base_freq_hz", float, "base frequency [Hz] (scheme 3)"),
-    "periods": ("n_periods", int, "periods of excitation (scheme 3)"),
-    "a_max": ("a_max", float, "output acceleration limit [rad/s²] (scheme 3)"),
-    "position_gain": ("position_gain", float, "position-loop gain [1/s] (scheme 3)"),
-    "opt_seed": ("opt_seed", int, "seed of the excitation optimisation (scheme 3)"),
-}
+from core.schemes import SCHEME_ARGS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
