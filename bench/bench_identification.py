@@ -23,7 +23,7 @@
     coordinate, next to full-batch Metropolis–Hastings (E1's MH on sufficient statistics, and a
     plain MH evaluating the full-data likelihood each step).
 
-ESS is the bulk ESS (rank-normalised split R-hat machinery of estimator.diagnostics, the same
+ESS is the bulk ESS (rank-normalised split R-hat machinery of estimator.convergence, the same
 for every sampler), minimum over parameters; ESS/s divides by the sampler's wall time warm-up
 included and compilation excluded (JIT/compile time is reported in its own column). NumPyro
 runs its chains in parallel on the host devices; our samplers run their chains one after the
@@ -59,7 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from estimator.bouc_wen import build_target, fit_bouc_wen, least_squares_fit, posterior_mode  # noqa: E402,E501
 from estimator.bouc_wen_kernel import bw_state  # noqa: E402
-from estimator.diagnostics import ess_bulk, split_rhat  # noqa: E402
+from estimator.convergence import ess_bulk, split_rhat  # noqa: E402
 from estimator.exact import nig_draws, nig_posterior  # noqa: E402
 from estimator.priors import Scaling, conjugate_prior  # noqa: E402
 from core.params import JointParams  # noqa: E402

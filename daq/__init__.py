@@ -1,2 +1,4 @@
-"""Data acquisition: drivers for the rig's protocols, schemes as plans, interlocks, the writer.
-Never imports simulators/: it talks to the emulator exactly as to the rig."""
+"""Data acquisition: the drivers of the rig's protocols (Modbus TCP to the PLC, CiA 402 drives over
+CANopen), the DAQ facade (`rig.py`), schemes as plans (`plans.py`), interlocks, the engine that
+runs a plan into the database (`engine.py`) and the DAQ settings (`settings.py`). Never imports
+simulators/: it talks to the emulator exactly as to the rig (docs/architecture.md)."""

@@ -670,7 +670,7 @@ def fit_bouc_wen(signals: Mapping[str, Any], method: str, n: int = 1, seed: int 
     draws = np.concatenate([nl_phys, theta], axis=2)
     mean = draws.reshape(-1, draws.shape[2]).mean(axis=0)
     extra["seconds_linear_draws"] = t_linear
-    from estimator.diagnostics import fit_from_draws
+    from estimator.convergence import fit_from_draws
     fit = fit_from_draws(model, method, names, units, draws, np.sqrt(tau2),
                          rmse_train=rmse_of(mean[:k], mean[k:], signals),
                          rmse_test=rmse_of(mean[:k], mean[k:], test_signals),

@@ -186,5 +186,5 @@ def _as_data(src) -> EmpsData:
 
 
 def _rmse(y: np.ndarray, y_hat: np.ndarray) -> float:
-    from estimator.diagnostics import rmse
+    from estimator.convergence import rmse
     return rmse(y, y_hat)

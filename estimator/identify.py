@@ -25,7 +25,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from estimator.diagnostics import fit_from_draws, rmse
+from estimator.convergence import fit_from_draws, rmse
 from estimator.exact import (nig_draws, nig_posterior, semiconjugate_draws,
                              semiconjugate_posterior)
 from estimator.identifiability import identifiability_report

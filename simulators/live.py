@@ -1,4 +1,4 @@
-"""The joint emulator advanced under external commands (contract: /work/briefs/live_api.md).
+"""The joint emulator advanced under external commands: what the PLC and drive stand-ins drive.
 
 The PLC and drive stand-ins call `advance(seconds)` in small slices (1–10 ms of simulated time
 is typical) and set commands between slices; a caller pacing it against the wall clock applies

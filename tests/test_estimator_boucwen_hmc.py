@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from estimator.diagnostics import ess_bulk, split_rhat
+from estimator.convergence import ess_bulk, split_rhat
 from estimator.hmc import _warmup_windows, hmc
 
 

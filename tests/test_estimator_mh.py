@@ -4,7 +4,7 @@ the linear model's posterior (the paper's Eq. 16 prior)."""
 import numpy as np
 import pytest
 
-from estimator.diagnostics import ess_bulk, split_rhat
+from estimator.convergence import ess_bulk, split_rhat
 from estimator.linear_posterior import LinearPosterior
 from estimator.mh import metropolis_hastings, target_acceptance
 from estimator.priors import paper_prior

@@ -103,7 +103,7 @@ def test_automatic_batch_escapes_the_noise_limited_regime():
     like this), whose squares make the per-row gradient of log τ² scatter far more than a
     Gaussian's. The automatic batch is larger, and the chains mix (R-hat < 1.01, bulk ESS > 400
     of 4 × 2000 draws) where 10 % batches barely move."""
-    from estimator.diagnostics import ess_bulk, split_rhat
+    from estimator.convergence import ess_bulk, split_rhat
     rng = np.random.default_rng(5)
     n, p = 4000, 3
     X = rng.standard_normal((n, p))

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimator.diagnostics import (autocorr, ess_bulk, ess_mean, ess_tail, fit_from_draws,
+from estimator.convergence import (autocorr, ess_bulk, ess_mean, ess_tail, fit_from_draws,
                                    mean_autocorr, rhat_trace, rmse, split_rhat, summarize)
 
 
