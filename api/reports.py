@@ -5,21 +5,14 @@ from __future__ import annotations
 
 import base64
 import html
-import math
 from typing import Any, Callable
 
+from core.jsonsafe import json_safe
 from db.store import Store
 
 
-def json_clean(x: Any) -> Any:
-    """NaN/inf → None, recursively (JSON has neither)."""
-    if isinstance(x, float):
-        return x if math.isfinite(x) else None
-    if isinstance(x, dict):
-        return {k: json_clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [json_clean(v) for v in x]
-    return x
+json_clean = json_safe
+"""NaN/inf → None, recursively (core.jsonsafe)."""
 
 
 def _try_plot(fn: Callable[[], bytes | None]) -> bytes | None:

@@ -5,6 +5,7 @@ Table 11 (core/acceptance.py) for a loading run."""
 from __future__ import annotations
 
 import argparse
+from core.jsonsafe import json_safe
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -19,7 +20,6 @@ ACCEPTANCE_CHANNELS = ("t", "phase", "torque_load", "torque_cmd", "m_bend", "f_s
 
 def summarise(store, run_id: int) -> dict:
     """Everything `rig show` prints, as a dict (JSON-ready apart from datetimes)."""
-    import numpy as np
     import pandas as pd
 
     from core.acceptance import acceptance, is_loading_run
@@ -44,8 +44,7 @@ def summarise(store, run_id: int) -> dict:
     indicators = acceptance(probe) if is_loading_run(probe) and n else []
     phases = store.phase_durations(run_id)
     return {**info, "channels": channels,
-            "phases": [{k: (None if isinstance(v, float) and np.isnan(v) else v)
-                        for k, v in row.items()} for row in phases.to_dict("records")],
+            "phases": json_safe(phases.to_dict("records")),
             "interruptions": store.interruptions(run_id),
             "acceptance": [i.as_dict() for i in indicators]}
 

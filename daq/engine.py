@@ -42,6 +42,7 @@ from db.store import Store
 from db.writer import ChannelSpec, RunWriter
 from core.channels import unit_of
 from core.plc_map import REGISTER_MAP
+from core.jsonsafe import json_safe
 
 EXIT_SUCCESS, EXIT_ABORT, EXIT_FAIL = "success", "abort", "fail"
 
@@ -121,17 +122,7 @@ async def _off_loop(fn: Callable[..., Any], *args: Any) -> Any:
     return result
 
 
-def _clean(v: Any) -> Any:
-    """A JSON-safe copy (non-finite floats → None, tuples → lists) for metadata."""
-    if isinstance(v, dict):
-        return {str(k): _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    if isinstance(v, float):
-        return float(v) if math.isfinite(v) else None
-    if hasattr(v, "item") and not isinstance(v, (str, bytes)):
-        return _clean(v.item())
-    return v
+_clean = json_safe
 
 
 class Engine:
@@ -320,12 +311,12 @@ class Engine:
 
     def _check_rate(self, plan: Plan) -> None:
         """Refuse a sample rate the PLC poll cannot deliver at this time scale."""
-        achievable = self.daq.settings.plc_poll_hz / self.time_scale
+        achievable = self.rig.settings.plc_poll_hz / self.time_scale
         if achievable < 0.9 * plan.sample_rate_hz:
             raise ValueError(
                 f"sample rate {plan.sample_rate_hz:g} Hz needs a PLC poll of at least "
                 f"{plan.sample_rate_hz * self.time_scale:.0f} Hz at {self.time_scale:.2f} rig s "
-                f"per wall s (plc_poll_hz is {self.daq.settings.plc_poll_hz:g}): lower the "
+                f"per wall s (plc_poll_hz is {self.rig.settings.plc_poll_hz:g}): lower the "
                 "sample rate or raise RIG_PLC_POLL_HZ")
 
     async def _read_slow(self) -> dict[str, Any]:
@@ -354,7 +345,7 @@ class Engine:
         return _clean(out)
 
     def _start_meta(self, plan: Plan, baseline: dict[str, Any]) -> dict[str, Any]:
-        s = self.daq.settings
+        s = self.rig.settings
         meta = plan.meta()
         meta.update({
             "rig": self.rig_name, "source": self.source,
@@ -375,7 +366,7 @@ class Engine:
 
     def _descriptors(self, plan: Plan) -> dict[str, Any]:
         """One descriptor per stream: its source and its channels with units."""
-        s = self.daq.settings
+        s = self.rig.settings
         plc = {ch: unit_of(ch) for _, ch in PLC_CHANNELS}
         out: dict[str, Any] = {
             "plc": {"source": f"PLC status block, Modbus TCP {s.plc_host}:{s.plc_port}",
@@ -433,7 +424,7 @@ class Engine:
 
     async def _loop(self, plan: Plan) -> tuple[str, str | None]:
         rig = self.rig
-        tick = max(0.002, 1.0 / daq.settings.plc_poll_hz)
+        tick = max(0.002, 1.0 / rig.settings.plc_poll_hz)
         # set points go out at most every `cmd_period` s of rig time (the dynamometer lags
         # 0.2 s; a 20 Hz position loop at k_p = 5/s moves 1/4 of its error per update)
         cmd_period = min(0.5 * plan.period, 0.05)

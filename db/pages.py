@@ -13,6 +13,7 @@ import pandas as pd
 from sqlalchemy import Connection, insert, update
 
 from db.models import Channel, SampleBlock, SamplePage
+from core.jsonsafe import finite_list
 
 PAGE_SAMPLES = 16384
 """Largest page [samples]: 128 KiB per float channel block (measured: larger blocks load a
@@ -71,8 +72,7 @@ def decode_text(blob: bytes) -> list[str | None]:
     return json.loads(bytes(blob).decode("utf-8"))
 
 
-def _none_if_nan(a: np.ndarray) -> list[float | None]:
-    return [None if v != v else float(v) for v in a.tolist()]
+_none_if_nan = finite_list
 
 
 def float_block_rows(x: np.ndarray, starts: np.ndarray, ref: float) -> list[dict[str, Any]]:

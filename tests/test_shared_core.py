@@ -96,3 +96,18 @@ def test_eq4_regressor_reproduces_rigid_body_torque():
     theta = np.array([p.I_xx, p.mr_x, p.mr_y, p.f_v, p.f_c])
     direct = rigid_body_torque(q, qd, qdd, p.I_xx, p.mr_x, p.mr_y, p.f_v, p.f_c, p.v_eps)
     np.testing.assert_allclose(eq4_regressor(q, qd, qdd, p.v_eps) @ theta, direct, rtol=1e-12)
+
+
+def test_json_safe_leaves_no_nan_tuple_or_numpy_type():
+    import json
+    import math
+
+    import numpy as np
+
+    from core.jsonsafe import finite_list, json_safe
+    doc = {"a": float("nan"), 1: (np.float64(2.0), np.int64(3)), "m": np.array([[1.0, np.inf]]),
+           "s": np.array(["x", None], dtype=object)}
+    out = json_safe(doc)
+    assert out == {"a": None, "1": [2.0, 3], "m": [[1.0, None]], "s": ["x", None]}
+    json.dumps(out, allow_nan=False)
+    assert finite_list(np.array([1.0, math.nan])) == [1.0, None]

@@ -26,11 +26,11 @@ async def assert_left_safe(rig: Rig, name: str, timeout: float = 8.0) -> None:
     assert rig.events_of("make_safe")[0].data["reason"] == f"interlock {name}"
     cmd = await rig.plc_client.read_commands()
     assert cmd["dyno_torque_sp"] == 0.0
-    assert cmd["pressure_sp"] == daq.settings.safe_pressure
+    assert cmd["pressure_sp"] == rig.settings.safe_pressure
 
     async def applied():
         st = await rig.plc_client.read_status()
-        return st["torque_cmd"] == 0.0 and st["pressure_sp_applied"] == daq.settings.safe_pressure
+        return st["torque_cmd"] == 0.0 and st["pressure_sp_applied"] == rig.settings.safe_pressure
     assert await await_for(applied, timeout=1.0)
     if rig.drives is not None:
         assert await await_for(lambda: all(

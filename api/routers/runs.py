@@ -16,6 +16,7 @@ from api.deps import ERRORS, Id, MAX_ID, StoreDep, Viewer
 from api.queue import aware_utc, results_for_run
 from db.models import Rig, Run
 from db.store import RunNotFound
+from core.jsonsafe import finite_list
 
 router = APIRouter(prefix="/runs", tags=["runs"], responses=ERRORS)
 
@@ -85,10 +86,7 @@ def get_run(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
     return info
 
 
-def _jsonable(a: np.ndarray) -> list:
-    if a.dtype == object:
-        return [None if v is None else v for v in a.tolist()]
-    return [None if not math.isfinite(v) else v for v in a.tolist()]
+_jsonable = finite_list
 
 
 @router.get("/{run_id}/data", summary="Channel samples in a time range, decimated")
