@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from canopen.profiles.p402 import State402
+
 EDS_PATH = Path(__file__).with_name("drives.eds")
 
 # --- object indices (CiA 301 / CiA 402 / manufacturer-specific) ------------------------------
@@ -24,7 +26,19 @@ RPDO_MAP = (0x1600, 0x1601)
 MOTOR_TEMPERATURE = 0x2010
 SAMPLE_STAMP = 0x2011
 """Manufacturer-specific: the drive clock [ms, rig time] when the TPDO values were sampled
-(UNSIGNED16, wraps at 65536): a time stamp per sample, and a loss/duplicate detector."""
+(UNSIGNED16, wraps at STAMP_WRAP): a time stamp per sample, and a loss/duplicate detector."""
+STAMP_WRAP = 1 << 16
+"""The sample stamp counts milliseconds modulo this (an UNSIGNED16)."""
+
+
+def stamp_of(ms: int) -> int:
+    """The sample stamp a drive writes at its clock `ms` [ms]."""
+    return ms % STAMP_WRAP
+
+
+def stamp_delta(new: int, old: int) -> int:
+    """Milliseconds from stamp `old` to stamp `new`, across one wrap."""
+    return (new - old) % STAMP_WRAP
 ERROR_CODE = 0x603F
 CONTROLWORD = 0x6040
 STATUSWORD = 0x6041
@@ -64,17 +78,9 @@ MODE_CSV = 9
 SUPPORTED_MODES = (MODE_PROFILE_VELOCITY, MODE_PROFILE_TORQUE, MODE_CSV)
 
 # --- CiA 402 state machine -----------------------------------------------------------------
-# statusword (mask, value) per state, CiA 402 Table 30
-STATE_CODES: dict[str, tuple[int, int]] = {
-    "NOT READY TO SWITCH ON": (0x4F, 0x00),
-    "SWITCH ON DISABLED": (0x4F, 0x40),
-    "READY TO SWITCH ON": (0x6F, 0x21),
-    "SWITCHED ON": (0x6F, 0x23),
-    "OPERATION ENABLED": (0x6F, 0x27),
-    "QUICK STOP ACTIVE": (0x6F, 0x07),
-    "FAULT REACTION ACTIVE": (0x4F, 0x0F),
-    "FAULT": (0x4F, 0x08),
-}
+# statusword (mask, value) per state, CiA 402 Table 30: canopen's own table, so the drivers,
+# the drive stand-in and canopen's profile never disagree
+STATE_CODES: dict[str, tuple[int, int]] = dict(State402.SW_MASK)
 SW_VOLTAGE_ENABLED = 0x0010
 SW_WARNING = 0x0080
 SW_REMOTE = 0x0200

@@ -350,7 +350,7 @@ class DriveMaster:
             if st._last_raw is None:
                 full = raw
             else:
-                delta = (raw - st._last_raw) & 0xFFFF
+                delta = D.stamp_delta(raw, st._last_raw)
                 if delta == 0 or delta > 0x8000:
                     st.duplicated += 1
                     return

@@ -41,6 +41,7 @@ from daq.rig import Rig, RigSafeError
 from db.store import Store
 from db.writer import ChannelSpec, RunWriter
 from core.channels import unit_of
+from core.drive_od import STAMP_WRAP
 from core.plc_map import REGISTER_MAP
 from core.jsonsafe import json_safe
 
@@ -51,7 +52,7 @@ PLC_CHANNELS: tuple[tuple[str, str], ...] = tuple(
     if s.channel is not None and s.channel != "t")
 """(status signal, run-format channel) of every PLC status signal that is a channel."""
 
-DRIVE_WRAP_MS = 65536
+DRIVE_WRAP_MS = STAMP_WRAP
 """The drives' sample stamp (0x2011) wraps at 2^16 ms."""
 
 

@@ -116,7 +116,7 @@ class DriveNode:
             D.TORQUE_ACTUAL: _clip(m["tau"] / rated_tau / D.PER_MILLE, 15),
             D.CURRENT_ACTUAL: _clip(m["i"] / rated_i / D.PER_MILLE, 15),
             D.MOTOR_TEMPERATURE: _clip(m["temp"] / D.TEMPERATURE_UNIT, 15),
-            D.SAMPLE_STAMP: self._ms() & 0xFFFF,
+            D.SAMPLE_STAMP: D.stamp_of(self._ms()),
             D.MODES_DISPLAY: self._get(D.MODES_OF_OPERATION),
             D.ERROR_CODE: self.error_code,
             D.ERROR_REGISTER: 0x01 if self.error_code else 0,

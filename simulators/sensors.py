@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from core.channels import NUMERIC_CHANNELS
 from core.effects import torque_offset
 from core.params import N_MOTORS
 from simulators import kernel as K
@@ -36,9 +37,7 @@ from simulators.config import EmulatorConfig
 ACCEL_WINDOW = 0.01
 """Differencing window [s] of the live qdd estimate (design: 10 samples of the 1 kHz observer)."""
 
-SENSED = ("t", "q", "qd", "qdd", "u", "ud", "torsion", "torque", "torque_load", "torque_cmd",
-          "i_m1", "i_m2", "i_m3", "w_m1", "w_m2", "w_m3", "temp_m1", "temp_m2", "temp_m3",
-          "temp_joint", "p_hyd", "m_bend", "f_shear")
+SENSED = NUMERIC_CHANNELS
 """Channels the sensor model produces, in core.channels order (qdd only for live reads)."""
 
 _NOISY = ("qd", "qdd", "ud", "torque", "torque_load", "i_m1", "i_m2", "i_m3", "w_m1", "w_m2",
