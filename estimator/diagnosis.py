@@ -75,7 +75,8 @@ from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinka
                                        cross_correlation, spectral_line, whiteness)
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
-from estimator.models import LinearModel, eq11, linear_model, model_from_spec
+from estimator.emps import emps_model
+from estimator.models import LinearModel, eq11, model_from_spec
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
 from core import effects as fx
@@ -84,14 +85,6 @@ from core.run import RunData
 OPTIONAL_SIGNALS = ("q", "qd", "qdd", "torque", "torque_load", "torque_rate", "temp_joint",
                     "torsion", "torsion_rate")
 """Signals prepared when a run can supply them (regions and candidate terms use them)."""
-
-
-def emps_model() -> LinearModel:
-    """The EMPS benchmark's nominal model on the joint channel names (q = qm, torque = force):
-    force = M·q̈ + Fv·q̇ + Fc·sgn q̇ + offset (estimator.emps)."""
-    return linear_model("emps", "torque", {"M": ("qdd", "kg"), "Fv": ("qd", "N·s/m"),
-                                           "Fc": ("sgn(qd)", "N"), "offset": ("1", "N")},
-                        target_unit="N")
 
 
 def base_model(spec: str | LinearModel) -> LinearModel:

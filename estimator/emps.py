@@ -188,3 +188,14 @@ def _as_data(src) -> EmpsData:
 def _rmse(y: np.ndarray, y_hat: np.ndarray) -> float:
     from estimator.convergence import rmse
     return rmse(y, y_hat)
+
+
+def emps_model():
+    """The EMPS inverse dynamic model as a LinearModel on the joint channel names (q = qm,
+    torque = force) for the gap diagnosis: force = M·q̈ + Fv·q̇ + Fc·sgn q̇ + offset, with the
+    names and units above (the smoothed sign of estimator.models; identify_emps keeps the
+    benchmark's own sign and regressor)."""
+    from estimator.models import linear_model
+    cols = dict(zip(EMPS_PARAMS, ("qdd", "qd", "sgn(qd)", "1")))
+    return linear_model("emps", "torque", {n: (cols[n], u) for n, u in zip(EMPS_PARAMS, EMPS_UNITS)},
+                        target_unit="N")
