@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 from typing import Iterable, Literal, Mapping
 
 from core.channels import CHANNELS
+from core.params import JointParams
 
 MAX_READ_REGISTERS = 125
 """Modbus limit for one read holding/input registers request (FC 3/4)."""
@@ -238,8 +239,8 @@ PUMP_STATES = {0: "off", 1: "running"}
 VALVE_STATES = {0: "locked (centre, hydraulic lock)", 1: "extend", 2: "retract"}
 
 DEG = math.pi / 180.0
-ENCODER_COUNT = 0.01 * DEG
-"""Output encoder count [rad] (0.01°, Table 10)."""
+ENCODER_COUNT = JointParams().enc_res
+"""Output encoder count [rad] (the joint's encoder resolution, core.params: 0.01°, Table 10)."""
 
 STATUS_BLOCK = _layout("status", 0, "status", [
     ("plc_life", "INT", 1.0, "", "PLC life counter, +1 per PLC scan (wraps at 32767)", None),
