@@ -100,7 +100,8 @@ def run_command(spec: dict[str, Any], db_url: str) -> list[str]:
 
 
 def _effect_arg(name: str, kv: dict[str, float]) -> str:
-    return name + (":" + ",".join(f"{k}={v!r}" for k, v in kv.items()) if kv else "")
+    from core.effects import format_effect
+    return format_effect(name, kv)
 
 
 def _standin_args(spec: dict[str, Any]) -> list[str]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 
+from core.effects import parse_effect
 from core.schemes import SCHEME_ARGS
 
 
@@ -64,12 +65,7 @@ def scheme_params(args: argparse.Namespace, number: int) -> dict:
 
 def parse_effects(specs: list[str]) -> dict[str, dict[str, float]]:
     """`NAME[:k=v,...]` items as {name: {k: v}} (the syntax of `rig emulate --effect`)."""
-    out: dict[str, dict[str, float]] = {}
-    for spec in specs:
-        name, _, kv = spec.partition(":")
-        out[name.strip()] = {k.strip(): float(v) for k, v in
-                             (item.split("=", 1) for item in kv.split(",") if item.strip())}
-    return out
+    return dict(parse_effect(spec) for spec in specs)
 
 
 def _is_loopback(host: str) -> bool:

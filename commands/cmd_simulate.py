@@ -11,24 +11,17 @@ from __future__ import annotations
 
 import argparse
 
+from core.effects import parse_effect as _parse_effect
+
 _SCHEMES = {"scheme1": 1, "scheme2": 2, "scheme3": 3, "1": 1, "2": 2, "3": 3}
 
 
 def parse_effect(text: str) -> tuple[str, dict[str, float]]:
-    """'NAME' or 'NAME:k=v,k=v' → (name, {param: value}); values are numbers."""
-    name, _, rest = text.partition(":")
-    params: dict[str, float] = {}
-    for item in filter(None, (s.strip() for s in rest.split(","))):
-        key, eq, value = item.partition("=")
-        if not eq:
-            raise argparse.ArgumentTypeError(f"effect parameter {item!r} is not KEY=VALUE")
-        try:
-            params[key.strip()] = float(value)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"effect parameter {key}={value!r} is not a number")
-    if not name.strip():
-        raise argparse.ArgumentTypeError(f"effect {text!r} has no name")
-    return name.strip(), params
+    """--effect's argparse type: core.effects.parse_effect with argparse's error."""
+    try:
+        return _parse_effect(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def parse_failure(text: str) -> tuple[int, float]:

@@ -110,6 +110,30 @@ def resolve_effects(spec: Mapping[str, Mapping[str, float] | None]) -> dict[str,
     return out
 
 
+def parse_effect(text: str) -> tuple[str, dict[str, float]]:
+    """'NAME' or 'NAME:k=v,k=v' (the command line's --effect syntax) → (name, {param: value}).
+    Raises ValueError naming what is wrong; the names are checked by resolve_effects."""
+    name, _, rest = text.partition(":")
+    params: dict[str, float] = {}
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise ValueError(f"effect parameter {item!r} is not KEY=VALUE")
+        try:
+            params[key.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"effect parameter {key}={value!r} is not a number") from None
+    if not name.strip():
+        raise ValueError(f"effect {text!r} has no name")
+    return name.strip(), params
+
+
+def format_effect(name: str, params: Mapping[str, float] | None) -> str:
+    """The --effect text of (name, params), which parse_effect reads back exactly."""
+    return name + (":" + ",".join(f"{k}={float(v)!r}" for k, v in params.items())
+                   if params else "")
+
+
 # --- the effects' terms (NumPy/numba-compatible) -----------------------------------------------
 
 def stribeck_torque(qd, f_s, v_s, v_eps, delta=2.0):

@@ -268,10 +268,10 @@ def options_from_args(args: argparse.Namespace) -> StandInOptions:
     if args.no_can:
         data["can"] = False
     effects = dict(emu.get("effects", {}) or {})
+    from core.effects import parse_effect
     for spec in args.effect:
-        name, _, kv = spec.partition(":")
-        effects[name.strip()] = {k.strip(): float(v) for k, v in
-                                 (item.split("=", 1) for item in kv.split(",") if item.strip())}
+        name, kv = parse_effect(spec)
+        effects[name] = kv
     if effects:
         emu["effects"] = effects
     params = dict(emu.get("params", {}) or {})

@@ -31,7 +31,7 @@ def test_simulate_writes_a_valid_run_with_the_requested_configuration(tmp_path, 
     emu = meta["emulator"]
     assert emu["seed"] == 5 and emu["hysteresis"] is False
     assert emu["effects"]["gear_ripple"] == {"A": 800.0, "order": 30.0, "phase": 0.0}
-    assert emu["effects"]["stribeck"] == {"f_s": 1500.0, "v_s": 0.006}
+    assert emu["effects"]["stribeck"] == {"f_s": 1500.0, "v_s": 0.006, "delta": 2.0}
     assert emu["failed_motors"] == {"2": 40.0}
     # the same configuration through the Python API gives the same samples
     cfg = EmulatorConfig(seed=5, hysteresis=False, sample_rate_hz=20.0, failed_motors={2: 40.0},

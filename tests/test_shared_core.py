@@ -111,3 +111,15 @@ def test_json_safe_leaves_no_nan_tuple_or_numpy_type():
     assert out == {"a": None, "1": [2.0, 3], "m": [[1.0, None]], "s": ["x", None]}
     json.dumps(out, allow_nan=False)
     assert finite_list(np.array([1.0, math.nan])) == [1.0, None]
+
+
+def test_the_effect_syntax_reads_back_what_it_writes():
+    from core.effects import format_effect, parse_effect
+    assert parse_effect("stribeck") == ("stribeck", {})
+    assert parse_effect(" gear_ripple:A=800, order=36 ") == ("gear_ripple",
+                                                             {"A": 800.0, "order": 36.0})
+    for name, kv in (("torque_offset", {"c0": 500.0, "drift": -1e-3}), ("backlash", {})):
+        assert parse_effect(format_effect(name, kv)) == (name, kv)
+    for bad in ("stribeck:f_s", "stribeck:f_s=x", ":f_s=1"):
+        with pytest.raises(ValueError):
+            parse_effect(bad)
