@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from core.effects import VOCABULARY
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=1, help="emulator seed (default 1)")
@@ -224,9 +226,9 @@ def identify_eq4(run) -> str:
     return "\n".join(lines)
 
 
-HIDDEN_CANDIDATES = ("stribeck", "load_dependent_friction", "temperature_friction", "gear_ripple",
-                     "torque_offset", "time_delay")
-"""Effects the demo may hide in its campaign: those acting on Eq. 4's torque balance."""
+HIDDEN_CANDIDATES = tuple(n for n, e in VOCABULARY.items() if e.acts_on in ("output", "sensor"))
+"""Effects the demo may hide in its campaign: those acting on Eq. 4's torque balance or on its
+torque channel (from the vocabulary)."""
 
 
 def diagnose_hidden_effect(seed: int) -> str:

@@ -70,6 +70,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from core.effects import VOCABULARY
+
 OOV_EFFECTS = ("periodic_disturbance", "position_stiffness")
 
 NOT_EXPLAINED = ("unexplained", "partly_explained")
@@ -160,7 +162,7 @@ def apply_oov(run, oov: dict[str, float]):
 ELASTIC = {"hysteresis": {"scale": 0.0}}
 """The elastic-transmission world of the hysteresis cells (k_h = 0, stiffness k_u)."""
 
-TRANSMISSION_CLASSES = ("hysteresis", "backlash")
+TRANSMISSION_CLASSES = tuple(n for n, e in VOCABULARY.items() if e.acts_on == "transmission")
 """The vocabulary's transmission effects (diagnosed on the twist–torque law)."""
 
 
@@ -270,8 +272,7 @@ EFFECT_REGIONS: dict[str, tuple[str, ...]] = {
 }
 """Region families where each injected effect acts (for the overlap score)."""
 
-CLASSES = ("stribeck", "load_dependent_friction", "temperature_friction", "gear_ripple",
-           "torque_offset", "time_delay", "asymmetric_friction")
+CLASSES = tuple(n for n, e in VOCABULARY.items() if e.acts_on in ("output", "sensor"))
 """The vocabulary's effects that act on Eq. 4's torque balance or its torque channel."""
 
 ALL_CLASSES = CLASSES + TRANSMISSION_CLASSES
