@@ -119,7 +119,11 @@ def _pool(runs: Sequence[RunData], need: Sequence[str], prep: PrepOptions, run0:
         if "torque_rate" in d:
             d["torque_rate"] = _smooth_rate(d["torque"], d["t"], d["segment"])
         if "torsion_rate" in d and {"ud", "qd"} <= set(run.samples.columns):
-            d["torsion_rate"] = _measured_twist_rate(run, s["index"])
+            rate = _measured_twist_rate(run, s["index"])
+            # a drive that reports the motor speed as both speeds says nothing of the twist
+            # rate: then the differentiated twist of preprocess stays
+            if np.any(np.abs(rate) > 0):
+                d["torsion_rate"] = rate
         d["scheme"] = np.full(s.n, run.meta.get("scheme", "?"), dtype=object)
         d["has_load"] = np.full(s.n, bool(s.info.get("has_torque_load")))
         parts.append(d)

@@ -45,11 +45,9 @@ def combined_status(statuses: list[str]) -> str:
 
 def verdict_summary(report: dict) -> str:
     """The verdict in one sentence, the same in the text output and the JSON (verdict.summary):
-    what was chosen and how far it shrinks the held-out error, what structure is left, and,
-    when nothing was chosen, that no candidate is a cause."""
+    what was chosen, on which law, how far it shrinks that law's held-out error, what structure
+    is left, and, when nothing was chosen, that no candidate is a cause."""
     v = report["verdict"]
-    sh = report["shrinkage"]["overall"]
-    left = v.get("structured_share_after", 0.0)
     if v["status"] == "none":
         return ("none — the residual is at the noise floor (no candidate effect improves the "
                 "held-out error significantly)")
@@ -57,10 +55,21 @@ def verdict_summary(report: dict) -> str:
         return (f"unexplained — no effect of the vocabulary explains the gap "
                 f"({v.get('structured_share_before', 0.0):.0%} of the held-out residual lies "
                 f"above the noise floor); the flagged regions say where it lies")
-    named = " + ".join(v["effects"])
-    text = (f"{v['status']} — {named}: held-out RMSE {sh['rmse_before']:.4g} -> "
-            f"{sh['rmse_after']:.4g} (shrinkage {sh['shrinkage']:.3f}, predicted from training "
-            f"{sh['predicted_from_training']:.3f})")
+    parts = []
+    laws = [(report, report["baseline"]["model"])]
+    if report.get("transmission"):
+        laws.append((report["transmission"], report["transmission"]["baseline"]["model"]))
+    models = v.get("effect_models") or {}
+    for rep, law in laws:
+        named = [e for e in v["effects"] if models.get(e, report["baseline"]["model"]) == law]
+        if not named:
+            continue
+        sh = rep["shrinkage"]["overall"]
+        parts.append(f"{' + '.join(named)} (on {law}: held-out RMSE {sh['rmse_before']:.4g} -> "
+                     f"{sh['rmse_after']:.4g}, shrinkage {sh['shrinkage']:.3f}, predicted from "
+                     f"training {sh['predicted_from_training']:.3f})")
+    text = f"{v['status']} — " + "; ".join(parts)
     if v["status"] == "partly_explained":
-        text += f"; structure left: {left:.0%} of the residual above the noise floor"
+        left = max(r["verdict"].get("structured_share_after", 0.0) for r, _ in laws)
+        text += f"; structure left: up to {left:.0%} of a law's residual above its noise floor"
     return text
