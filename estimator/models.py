@@ -231,8 +231,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
 
     stribeck                  f_s · stribeck_torque(q̇, 1, v_s, delta)  (output; the curve's
                               exponent delta, or 0 for the Lorentzian, is a shape)
-    load_dependent_friction   mu · |T|·sgn q̇ + mu_v · |T|·q̇ + mu_drive · |T|·sgn q̇·[T·q̇ > 0]
-                                                                                (output; T is the
+    load_dependent_friction   mu · |T|·sgn q̇ + mu_v · |T|·q̇                      (output; T is the
                               measured torque, an errors-in-variables approximation)
     temperature_friction      (T_ref − temp)·(c_T·sgn q̇ + c_Tv·q̇)                 (output)
     asymmetric_friction       d_v · asym(q̇, 0, 1): the positive direction's extra viscous slope
@@ -279,14 +278,10 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         return Term(name, ("f_s",), ("N·m",),
                     lambda s: fx.stribeck_torque(s["qd"], 1.0, v_s, v_eps, delta), ("qd",))
     if name == "load_dependent_friction":
-        # the third column: the Coulomb part's extra when the joint drives its load (power
-        # flowing out, T·q̇ > 0) over when it is back-driven (power-flow dependent efficiency)
-        return Term(name, ("mu", "mu_v", "mu_drive"), ("-", "s/rad", "-"),
+        return Term(name, ("mu", "mu_v"), ("-", "s/rad"),
                     lambda s: np.column_stack([
                         fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps, 0.0),
-                        fx.load_dependent_friction_torque(s["qd"], s["torque"], 0.0, v_eps, 1.0),
-                        fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps, 0.0)
-                        * (s["torque"] * s["qd"] > 0)]),
+                        fx.load_dependent_friction_torque(s["qd"], s["torque"], 0.0, v_eps, 1.0)]),
                     ("qd", "torque"))
     if name == "asymmetric_friction":
         # the Coulomb part, d_c·(1 + sgn q̇)/2, is a constant plus Eq. 4's own Coulomb column
