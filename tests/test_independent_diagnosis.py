@@ -45,3 +45,33 @@ def test_an_effect_outside_the_vocabulary_is_not_explained(variant, effect):
     mod = two_inertia if variant.rig == "two_inertia" else planned_motion
     c = run_cell(variant, 21, effect, mod.EFFECT_FORMS[effect][0], 2.0, "oov")
     assert c["status"] in ("unexplained", "partly_explained"), c
+
+
+def _cell(kind, effect, form, enr, status, effects, first, extra=(), shr=((0.3, 0.32),)):
+    return {"variant": "v", "seed": 1, "kind": kind, "effect": effect, "form": form,
+            "enr": enr, "enr_realised": enr, "status": status, "effects": list(effects),
+            "laws": {}, "named_first": first, "extra": list(extra),
+            "shrinkages": [tuple(s) for s in shr], "seconds": 1.0}
+
+
+def test_independent_scores_and_the_side_by_side_table():
+    from commands.independent_harness import format_side_by_side, score
+    cells = [_cell("none", None, None, 0.0, "none", [], None, shr=()),
+             _cell("none", None, None, 0.0, "explained", ["stribeck"], None, ["stribeck"], ()),
+             _cell("single", "stribeck", "gauss", 1.0, "explained", ["stribeck"], "stribeck"),
+             _cell("single", "stribeck", "lorentz", 1.0, "explained", ["gear_ripple"], None,
+                   ["gear_ripple"], ((0.1, 0.3),)),
+             _cell("single", "backlash", "sharp", 0.5, "explained", ["backlash"], "backlash"),
+             _cell("oov", "periodic_disturbance", "sine", 2.0, "unexplained", [], None, shr=())]
+    s = score(cells)
+    assert s["none_verdict"] == 0.5 and s["top1"] == {"0.5": 1.0, "1.0": 0.5}
+    assert s["top1_by_form_enr_ge_1"] == {"stribeck": {"gauss": 1.0, "lorentz": 0.0}}
+    assert s["extra_effect_named"] == pytest.approx(2 / 5) and s["oov_not_explained"] == 1.0
+    assert s["shrinkage_abs_error_median"] == pytest.approx(0.02)
+    own = {"scores": {"none_verdict": 1.0, "top1": {"0.5": 1.0, "1.0": 1.0, "2.0": 1.0},
+                      "false_alarm": 0.0, "oov_unexplained": 1.0,
+                      "shrinkage_abs_error_median": 0.01}}
+    text = format_side_by_side(own, {"scores": s, "cells": cells, "variants": ["v"],
+                                     "seeds": 1, "first_seed": 31, "seconds": 1.0})
+    assert "own-emulator minus independent top-1" in text and " 0.500  <= 0.05  NO" in text
+    assert "cells missed (2)" in text   # the stribeck miss and the none cell that named one
