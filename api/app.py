@@ -64,7 +64,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
-        from api.queue import recover_lost
+        from db.jobs import recover_lost
         from api.worker import WorkerPool
         from db.store import Store
 

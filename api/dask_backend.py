@@ -105,7 +105,7 @@ def run_job_task(db_url: str, job: dict[str, Any], worker: str) -> list:
     results (api.job_kinds.StoredResult), each fit annotated with fit.extra['dask']."""
     from distributed import get_client, get_worker
 
-    from api import queue
+    from db import jobs as queue
     from api.job_kinds import KINDS
     from db.store import Store
 

@@ -38,7 +38,7 @@ class JobProgress:
         self._write(self.base + span * done / max(total, 1))
 
     def _write(self, x: float) -> None:
-        from api import queue
+        from db import jobs as queue
         from api.job_kinds import JobCancelled
 
         self.last = max(self.last, min(x, 1.0))
@@ -49,7 +49,7 @@ class JobProgress:
     def check(self) -> None:
         """Raise JobCancelled when the job was cancelled or taken over (a read, at most every
         check_every_s)."""
-        from api import queue
+        from db import jobs as queue
         from api.job_kinds import JobCancelled
 
         if time.monotonic() - self._checked < self.check_every_s:

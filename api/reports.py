@@ -27,7 +27,7 @@ def _try_plot(fn: Callable[[], bytes | None]) -> bytes | None:
 def run_report(store: Store, run_id: int, with_plots: bool = True) -> dict[str, Any]:
     """A run's report: summary, channels, interruptions, acceptance indicators (Table 11),
     per-phase aggregates (SQL) and, with_plots, the figures as SVG bytes under 'plots'."""
-    from api import queue
+    from db import jobs as queue
     from api.run_plots import RUN_PLOTS
     from core.acceptance import acceptance
 
@@ -60,7 +60,7 @@ def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, 
     (the stored document) and, with_plots, predicted vs measured, posterior histograms, corner
     plot, R-hat trace, autocorrelation, Sobol bars and the diagnosis figures
     (api.diagnosis_plots) as SVG bytes under 'plots'."""
-    from api import queue
+    from db import jobs as queue
 
     job = queue.get_job(store, job_id)
     if job is None:
@@ -74,7 +74,7 @@ def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, 
     rep: dict[str, Any] = {"job": job, "results": results, "tables": None}
     if diagnosis is not None:
         rep["diagnosis"] = diagnosis
-    fits = queue.fits_of(store, job_id) if results else []
+    fits = fits_of(store, job_id) if results else []
     if fits:
         from estimator.tables import report as tables_report, sobol_table
         by_model: dict[str, list] = {}
@@ -353,3 +353,33 @@ def _law_html(d: dict[str, Any], plots: dict[str, bytes], prefix: str,
         parts.append(f"<{h}>Before and after in the flagged regions</{h}>")
         parts += [_img(n, plots[n]) for n in regs]
     return "".join(parts)
+
+
+def fits_of(store: Store, job_id: int) -> list:
+    """A job's results rebuilt as estimator.result.Fit objects (with their draws) for plots
+    and tables."""
+    import numpy as np
+    from sqlalchemy import select
+
+    from db.models import Result
+    from estimator.result import Fit
+
+    with store.ReadSession() as s:
+        rows = s.execute(select(Result).where(Result.job_id == job_id)
+                         .order_by(Result.id)).scalars().all()
+        fits = []
+        for r in rows:
+            d = r.fit
+            p = d["params"]
+            draws = None
+            if r.draws is not None and r.draws_shape:
+                draws = np.frombuffer(r.draws, dtype="<f8").reshape(r.draws_shape)
+            fits.append(Fit(
+                model=d["model"], method=d["method"], param_names=[x["name"] for x in p],
+                units=[x["unit"] for x in p], mean=np.array([x["mean"] for x in p]),
+                sd=np.array([x["sd"] for x in p]), ci_low=np.array([x["ci_low"] for x in p]),
+                ci_high=np.array([x["ci_high"] for x in p]), sigma=d["sigma"],
+                rmse_train=d["rmse_train"], rmse_test=d["rmse_test"], draws=draws,
+                diagnostics=d.get("diagnostics") or {}, timings=d.get("timings") or {},
+                extra=d.get("extra") or {}))
+        return fits

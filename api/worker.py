@@ -2,7 +2,7 @@
 the web process, never in a web request's background task, which would die with it). `python -m api.worker` runs one; the
 service starts a pool of them (WorkerPool) and stops them with it.
 
-Each loop turn (`run_once`) first re-queues jobs whose worker is gone (api.queue.recover_lost),
+Each loop turn (`run_once`) first re-queues jobs whose worker is gone (db.jobs.recover_lost),
 then claims one job and runs it: a heartbeat thread stamps the job every
 RIG_JOB_HEARTBEAT_S; progress reports check for cancellation; the results are written with the
 job's end in one transaction; an exception ends the job 'failed' with its error.
@@ -33,7 +33,7 @@ class Worker:
     def __init__(self, db_url: str | None = None, heartbeat_s: float = 2.0,
                  stale_s: float = 30.0, max_attempts: int = 2,
                  dask_scheduler: str | None = None):
-        from api.queue import worker_name
+        from db.jobs import worker_name
         from db.store import Store
 
         self.store = Store(db_url)
@@ -61,7 +61,7 @@ class Worker:
     def run_once(self) -> int | None:
         """Recover lost jobs, then claim and run one job; returns its id (None: queue empty, or
         the Dask scheduler is configured but unreachable)."""
-        from api import queue
+        from db import jobs as queue
 
         queue.recover_lost(self.store, self.stale_s, self.max_attempts)
         if not self._dask_ready():
@@ -73,7 +73,7 @@ class Worker:
         return job["id"]
 
     def run_job(self, job: dict[str, Any]) -> None:
-        from api import queue
+        from db import jobs as queue
         from api.job_kinds import KINDS, JobCancelled
         from api.job_runtime import JobProgress, ProgressMap, call_kind
 

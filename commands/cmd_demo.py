@@ -11,7 +11,7 @@
 4. Eq. 4 identified by least squares, the exact posterior, MH and SGHMC side by side.
 5. A sim-to-real diagnosis of a campaign with a hidden effect: the verdict, then the truth.
 6. Identification jobs on the runs stored in section 3 — one per scheme, through the service's
-   job queue (api.queue) and a job worker — and their test reports written as HTML files."""
+   job queue (db/jobs.py) and a job worker — and their test reports written as HTML files."""
 
 from __future__ import annotations
 
@@ -269,7 +269,7 @@ reports show each fit's ESS and R-hat."""
 
 def _convergence(job: dict) -> str:
     """', worst R-hat 1.002, least bulk ESS 1451' of a finished identification job ('' if none)."""
-    from api import queue
+    from db import jobs as queue
     from db.store import Store
 
     with Store() as store:
@@ -292,7 +292,7 @@ def identification_reports(acquired: list, report_dir: str) -> list[tuple[int, s
     import html
     from pathlib import Path
 
-    from api import queue
+    from db import jobs as queue
     from api.job_kinds import KINDS
     from api.reports import job_report, job_report_html
     from api.worker import Worker

@@ -160,7 +160,8 @@ def processing(cluster) -> dict[str, list[str]]:
 
 
 def test_an_unreachable_scheduler_leaves_jobs_queued(tmp_path_factory, monkeypatch):
-    from api import dask_backend, queue
+    from api import dask_backend
+    from db import jobs as queue
     from api.worker import Worker
 
     monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 1.0)

@@ -65,7 +65,7 @@ def test_diagnosis_submission_is_validated_and_needs_the_operator_role(api, camp
 def test_diagnosis_job_names_the_withheld_effect_and_stores_its_report(api, campaign):
     from sqlalchemy import select
 
-    from api.queue import json_document
+    from db.jobs import json_document
     from db.models import Report, ResultRun
     from estimator.diagnosis import DiagnosisOptions, diagnose_detailed
 

@@ -113,7 +113,7 @@ def test_a_job_that_raises_ends_failed_with_its_error(api):
 
 CLAIMER = """
 import sys
-from api.queue import claim
+from db.jobs import claim
 from db.store import Store
 store = Store(sys.argv[1], upgrade=False, recover=False)
 got = []
@@ -124,7 +124,7 @@ print(" ".join(map(str, got)))
 
 
 def test_two_worker_processes_never_claim_the_same_job(api):
-    from api import queue
+    from db import jobs as queue
     ids = [queue.submit(api.store, "identification", {"run_ids": [api.runs["fast"]]})[0]["id"]
            for _ in range(40)]
     procs = [subprocess.Popen([sys.executable, "-c", CLAIMER, api.url], stdout=subprocess.PIPE,

@@ -9,7 +9,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Response
 from pydantic import BaseModel, ConfigDict, Field, create_model
 from sqlalchemy import select
 
-from api import queue
+from db import jobs as queue
 from api.deps import ERRORS, Id, MAX_ID, Operator, StoreDep, Viewer
 from api.job_kinds import KINDS, run_ids_of
 from db.models import Run

@@ -13,7 +13,7 @@ from fastapi import APIRouter, HTTPException, Query, Response
 from sqlalchemy import select
 
 from api.deps import ERRORS, Id, MAX_ID, StoreDep, Viewer
-from api.queue import aware_utc, results_for_run
+from db.jobs import aware_utc, results_for_run
 from db.models import Rig, Run
 from db.store import RunNotFound
 from core.jsonsafe import finite_list

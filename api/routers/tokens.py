@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import select
 
 from api.deps import Admin, ERRORS, Id, StoreDep
-from api.queue import aware_utc
+from db.jobs import aware_utc
 from db.models import ApiToken
 
 router = APIRouter(prefix="/tokens", tags=["tokens"], responses=ERRORS)

@@ -10,7 +10,6 @@ same worker, so a cancelled or re-queued job never gets a stale result."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import socket
 import traceback
@@ -21,6 +20,7 @@ import numpy as np
 from sqlalchemy import insert, select, update
 from sqlalchemy.exc import IntegrityError
 
+from core.jsonsafe import json_safe
 from db.models import Job, Report, Result, ResultRun, utcnow
 from db.store import Store, process_token
 
@@ -165,18 +165,8 @@ def heartbeat(store: Store, job_id: int, worker: str, progress: float | None = N
         return s.execute(select(Job.status).where(Job.id == job_id)).scalar()
 
 
-def json_document(x: Any) -> Any:
-    """A JSON-ready copy of x: numpy arrays and scalars as lists and numbers, tuples as lists,
-    NaN and ±inf as None (JSON has neither)."""
-    if isinstance(x, dict):
-        return {str(k): json_document(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple, np.ndarray)):
-        return [json_document(v) for v in x]
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
+json_document = json_safe
+"""A JSON-ready copy of a result's document (core.jsonsafe)."""
 
 
 def finish(store: Store, job_id: int, worker: str, results: list) -> bool:
@@ -292,32 +282,6 @@ def document_of(store: Store, job_id: int, kind: str) -> dict[str, Any] | None:
     with store.ReadSession() as s:
         content = s.execute(q).scalar()
     return None if content is None else json.loads(content)
-
-
-def fits_of(store: Store, job_id: int) -> list:
-    """A job's results rebuilt as estimator.result.Fit objects (with their draws) for plots
-    and tables."""
-    from estimator.result import Fit
-
-    with store.ReadSession() as s:
-        rows = s.execute(select(Result).where(Result.job_id == job_id)
-                         .order_by(Result.id)).scalars().all()
-        fits = []
-        for r in rows:
-            d = r.fit
-            p = d["params"]
-            draws = None
-            if r.draws is not None and r.draws_shape:
-                draws = np.frombuffer(r.draws, dtype="<f8").reshape(r.draws_shape)
-            fits.append(Fit(
-                model=d["model"], method=d["method"], param_names=[x["name"] for x in p],
-                units=[x["unit"] for x in p], mean=np.array([x["mean"] for x in p]),
-                sd=np.array([x["sd"] for x in p]), ci_low=np.array([x["ci_low"] for x in p]),
-                ci_high=np.array([x["ci_high"] for x in p]), sigma=d["sigma"],
-                rmse_train=d["rmse_train"], rmse_test=d["rmse_test"], draws=draws,
-                diagnostics=d.get("diagnostics") or {}, timings=d.get("timings") or {},
-                extra=d.get("extra") or {}))
-        return fits
 
 
 def results_for_run(store: Store, run_id: int) -> list[dict[str, Any]]:
