@@ -57,7 +57,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from estimator.bouc_wen import build_target, fit_bouc_wen, least_squares_fit, posterior_mode  # noqa: E402,E501
+from estimator.bouc_wen import fit_bouc_wen, least_squares_fit, posterior_mode  # noqa: E402
+from estimator.bouc_wen_target import build_target  # noqa: E402
 from estimator.bouc_wen_kernel import bw_state  # noqa: E402
 from estimator.convergence import ess_bulk, split_rhat  # noqa: E402
 from estimator.exact import nig_draws, nig_posterior  # noqa: E402

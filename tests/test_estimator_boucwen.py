@@ -6,8 +6,8 @@ calibration), and the emulator's schemes 1–2 are identified."""
 import numpy as np
 import pytest
 
-from estimator.bouc_wen import (BoucWenPrior, build_target, fit_bouc_wen,
-                                least_squares_fit)
+from estimator.bouc_wen import fit_bouc_wen, least_squares_fit
+from estimator.bouc_wen_target import BoucWenPrior, build_target
 from estimator.bouc_wen_kernel import bw_state, bw_state_sensitivities
 from estimator.priors import Scaling, conjugate_prior
 from core.params import JointParams
