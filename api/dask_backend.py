@@ -1,11 +1,18 @@
-"""Jobs on a Dask distributed cluster (RIG_DASK_SCHEDULER=tcp://host:port).
+"""Jobs on a Dask distributed cluster (RIG_DASK_SCHEDULER=tcp://host:port or tls://host:port).
 
 SQL stays the source of truth for a job's state: a local worker process (api.worker) claims the
 job, stamps its heartbeats and writes its end and results, exactly as without Dask. Only the
 work moves to the cluster:
 - DaskJobs.run submits the job kind's code as one Dask task (`run_job_task`, a plain function of
-  the database URL and the job row that opens its own Store) and waits for it, checking every
-  second whether the job was cancelled (then the task's futures are cancelled);
+  the job row that opens its own Store on the Dask worker's RIG_DB_URL) and waits for it,
+  checking every second whether the job was cancelled (then the task's futures are cancelled);
+- the database URL (it may hold a password) is never a task argument: task arguments pass
+  through the scheduler, its logs and dashboards. Each Dask worker names the database in its
+  own environment (RIG_DB_URL); the task carries only the URL with its password masked, and
+  refuses to run on a worker whose database is another;
+- a tls:// scheduler is reached with distributed.security.Security built from the settings'
+  certificate files (api.settings: RIG_DASK_TLS_CA/_CERT/_KEY); a tcp:// scheduler
+  authenticates nobody and encrypts nothing, so it must stay on a trusted network;
 - inside that task the kind gets a DaskMap as its `map_fn`: the chains of a Bayesian fit and the
   Sobol evaluation blocks become Dask tasks spread over the workers; the job task leaves its
   worker's thread pool while it waits for them (secede/rejoin). R-hat, ESS and the Sobol analysis
@@ -17,8 +24,9 @@ work moves to the cluster:
 - A Dask worker lost mid-job: the scheduler re-runs its tasks (the job task included) on the
   other workers; the claiming worker keeps waiting on the same future and the job still ends
   'succeeded' (after `distributed.scheduler.allowed-failures` losses of one task it fails with
-  KilledWorker). The job's workers need the database (a PostgreSQL URL reachable from every
-  Dask worker; a SQLite file only when they share its machine) and this package installed.
+  KilledWorker). The job's workers need the database (RIG_DB_URL in each Dask worker's
+  environment: a PostgreSQL URL reachable from every Dask worker; a SQLite file only when they
+  share its machine) and this package installed.
 
 Each stored fit records where it ran in fit.extra['dask']: scheduler, the job task's key and
 worker, and each chain's or block's task key and worker."""
@@ -99,17 +107,32 @@ def _wait_in_order(futures: list, progress: JobProgress) -> list[Any]:
     return results
 
 
-def run_job_task(db_url: str, job: dict[str, Any], worker: str) -> list:
-    """A job's kind run as a Dask task: opens its own Store on `db_url`, reports progress as the
-    claiming `worker`, spreads chains and Sobol blocks over the cluster (DaskMap); returns the
-    results (api.job_kinds.StoredResult), each fit annotated with fit.extra['dask']."""
+def masked_url(url: str) -> str:
+    """`url` with its password replaced by ***: what may be shown, logged or sent to Dask."""
+    from sqlalchemy.engine import make_url
+
+    return make_url(url).render_as_string(hide_password=True)
+
+
+def run_job_task(job: dict[str, Any], worker: str, db_masked: str) -> list:
+    """A job's kind run as a Dask task: opens its own Store on this Dask worker's database
+    (RIG_DB_URL in its environment; RuntimeError if that is not the claiming service's
+    database, `db_masked`), reports progress as the claiming `worker`, spreads chains and Sobol
+    blocks over the cluster (DaskMap); returns the results (api.job_kinds.StoredResult), each
+    fit annotated with fit.extra['dask']."""
     from distributed import get_client, get_worker
 
     from db import jobs as queue
     from api.job_kinds import KINDS
+    from db.engine import database_url
     from db.store import Store
 
-    store = Store(db_url, upgrade=False, recover=False)
+    here_db = database_url()
+    if masked_url(here_db) != db_masked:
+        raise RuntimeError(f"Dask worker {get_worker().address}: its database (RIG_DB_URL) is "
+                           f"{masked_url(here_db)}, the job's is {db_masked}; start every Dask "
+                           "worker with the service's RIG_DB_URL in its environment")
+    store = Store(here_db, upgrade=False, recover=False)
     try:
         kind = KINDS[job["kind"]]
         params = kind.params.model_validate(job["params"])
@@ -130,21 +153,27 @@ def run_job_task(db_url: str, job: dict[str, Any], worker: str) -> list:
 
 
 class DaskJobs:
-    """The claiming worker's side: a Dask client on `address` that runs jobs as tasks."""
+    """The claiming worker's side: a Dask client on `address` that runs jobs as tasks.
+    `security`: distributed.security.Security for a tls:// scheduler; by default the one the
+    service's settings build (api.settings.Settings.dask_security, from RIG_DASK_TLS_*)."""
 
-    def __init__(self, address: str, db_url: str, connect_timeout_s: float | None = None):
+    def __init__(self, address: str, db_url: str, connect_timeout_s: float | None = None,
+                 security: Any = None):
         from distributed import Client
 
-        self.address, self.db_url = address, db_url
+        if security is None and address.startswith("tls://"):
+            from api.settings import Settings
+            security = Settings.from_env(dask_scheduler=address).dask_security()
+        self.address, self.db_masked = address, masked_url(db_url)
         self.client = Client(address, timeout=connect_timeout_s or CONNECT_TIMEOUT_S,
-                             set_as_default=False)
+                             set_as_default=False, security=security)
 
     def run(self, job: dict[str, Any], progress: JobProgress) -> list:
         """Run `job` (a claimed job row) on the cluster and return its results; JobCancelled
         when it is cancelled meanwhile (its tasks are cancelled too)."""
         key = f"rig-job{job['id']}-attempt{job['attempts']}-{uuid.uuid4().hex[:8]}"
-        future = self.client.submit(run_job_task, self.db_url, job, progress.worker, key=key,
-                                    pure=False)
+        future = self.client.submit(run_job_task, job, progress.worker, self.db_masked,
+                                    key=key, pure=False)
         try:
             return _wait_in_order([future], _NoTicks(progress))[0]
         except BaseException:

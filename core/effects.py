@@ -4,10 +4,17 @@ and the identification/diagnosis models' candidate terms.
 Each effect has a name, what it is, where it shows, the parameters it takes (with units and
 defaults) and one of them named as its magnitude. Its torque/sensor term is a plain NumPy
 function below, compiled into the emulator's kernel and evaluated on arrays by the estimator.
+
+Every parameter also has its physical range [lo, hi] (this module is the one place): an
+injection (`resolve_effects`, `parse_effect`: the emulator, `rig simulate`, `rig emulate`,
+`rig run --effect`, the API's emulator options) with a value outside it, NaN or ±inf is refused
+naming the parameter — `time_delay` with delay = 1e7 s would allocate a ring buffer of ~80 GB,
+NaN would give NaN physics and metadata that PostgreSQL's JSON refuses.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -22,6 +29,26 @@ class EffectParam:
     default: float
     unit: str
     doc: str
+    lo: float = -math.inf
+    """Smallest value an injection may take (inclusive), in `unit`."""
+    hi: float = math.inf
+    """Largest value an injection may take (inclusive), in `unit`."""
+
+    def check(self, effect: str, value: float) -> float:
+        """`value` as a float if it is finite and within [lo, hi], else ValueError naming the
+        effect, the parameter, its range and unit."""
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"effect {effect!r} parameter {self.name!r}: {value!r} is not a "
+                             "number") from None
+        if not math.isfinite(v):
+            raise ValueError(f"effect {effect!r} parameter {self.name!r} must be a finite "
+                             f"number in [{self.lo:g}, {self.hi:g}] {self.unit}, got {v!r}")
+        if not self.lo <= v <= self.hi:
+            raise ValueError(f"effect {effect!r} parameter {self.name!r} = {v!r} {self.unit} "
+                             f"is outside its range [{self.lo:g}, {self.hi:g}] {self.unit}")
+        return v
 
 
 @dataclass(frozen=True)
@@ -49,70 +76,94 @@ class Effect:
             out[key] = float(value)
         return out
 
+    def check(self, given: Mapping[str, float] | None) -> dict[str, float]:
+        """`given` (as floats) if every name is a parameter of this effect and every value is
+        finite and within that parameter's range; ValueError naming the first that is not."""
+        params = {p.name: p for p in self.params}
+        out = {}
+        for key, value in (given or {}).items():
+            if key not in params:
+                raise ValueError(
+                    f"effect {self.name!r} has no parameter {key!r}; it takes {sorted(params)}")
+            out[key] = params[key].check(self.name, value)
+        return out
+
 
 VOCABULARY: dict[str, Effect] = {e.name: e for e in (
     Effect("hysteresis", "Bouc–Wen state in the transmission (absent from the rigid Eq. 4)",
            "twist vs torque loops; loading vs unloading", "transmission", "scale",
            (EffectParam("scale", 1.0, "-", "multiplies the hysteretic stiffness k_h = (1−w)·k; "
-                        "0 makes the transmission purely elastic with stiffness k"),)),
+                        "0 makes the transmission purely elastic with stiffness k", 0.0, 5.0),)),
     Effect("stribeck", "friction above Coulomb at low speed, falling with speed",
            "low speeds (300 r/min runs), velocity reversals", "output", "f_s",
-           (EffectParam("f_s", 1500.0, "N·m", "extra friction at zero speed"),
-            EffectParam("v_s", 6e-3, "rad/s", "Stribeck speed (output side; 300 r/min = 2.9e-3)"),
+           (EffectParam("f_s", 1500.0, "N·m", "extra friction at zero speed", 0.0, 50e3),
+            EffectParam("v_s", 6e-3, "rad/s", "Stribeck speed (output side; 300 r/min = 2.9e-3)",
+                        1e-5, 1.0),
             EffectParam("delta", 2.0, "-", "exponent of the curve exp(−|q̇/v_s|^delta) (2 "
-                        "Gaussian, 1 exponential); 0 selects the Lorentzian 1/(1 + (q̇/v_s)²)"))),
+                        "Gaussian, 1 exponential); 0 selects the Lorentzian 1/(1 + (q̇/v_s)²)", 0.0, 5.0))),
     Effect("load_dependent_friction", "gear/bearing friction growing with transmitted torque",
            "high load; sign flips with the direction of motion", "output", "mu",
-           (EffectParam("mu", 0.02, "-", "friction torque per unit of |transmitted torque|"),
+           (EffectParam("mu", 0.02, "-", "friction torque per unit of |transmitted torque|",
+                        0.0, 1.0),
             EffectParam("mu_v", 0.0, "s/rad", "viscous friction torque per unit of |transmitted "
-                        "torque| and of speed (the viscous part scaled by the load)"))),
+                        "torque| and of speed (the viscous part scaled by the load)", 0.0, 100.0))),
     Effect("temperature_friction", "lubricant drag that changes with joint temperature",
            "cold vs warm runs; drifts along long runs", "output", "c_T",
-           (EffectParam("c_T", 30.0, "N·m/K", "extra drag per kelvin below T_ref"),
-            EffectParam("T_ref", 40.0, "°C", "temperature at which the drag is nominal"),
+           (EffectParam("c_T", 30.0, "N·m/K", "extra drag per kelvin below T_ref", -1e3, 1e3),
+            EffectParam("T_ref", 40.0, "°C", "temperature at which the drag is nominal", -40.0, 150.0),
             EffectParam("c_Tv", 0.0, "N·m·s/(rad·K)",
-                        "extra viscous slope per kelvin below T_ref (lubricant viscosity)"))),
+                        "extra viscous slope per kelvin below T_ref (lubricant viscosity)",
+                        -1e4, 1e4))),
     Effect("backlash", "dead zone in the transmission",
            "torque and velocity reversals", "transmission", "b",
-           (EffectParam("b", 8.7e-4, "rad", "half-width of the dead zone (0.05°)"),)),
+           (EffectParam("b", 8.7e-4, "rad", "half-width of the dead zone (0.05°)", 0.0, 0.05),)),
     Effect("gear_ripple", "torque periodic in the output angle (gear mesh)",
            "a spectral line at a fixed number of cycles per revolution", "output", "A",
-           (EffectParam("A", 500.0, "N·m", "ripple amplitude"),
-            EffectParam("order", 36.0, "cycles/rev", "ripple cycles per output revolution"),
-            EffectParam("phase", 0.0, "rad", "ripple phase at q = 0"))),
+           (EffectParam("A", 500.0, "N·m", "ripple amplitude", 0.0, 50e3),
+            EffectParam("order", 36.0, "cycles/rev", "ripple cycles per output revolution", 0.0, 1e3),
+            EffectParam("phase", 0.0, "rad", "ripple phase at q = 0", -2 * math.pi, 2 * math.pi))),
     Effect("torque_offset", "torque sensor offset or slow drift",
            "everywhere, growing with time", "sensor", "c0",
-           (EffectParam("c0", 800.0, "N·m", "offset of the torque channel at t = 0"),
-            EffectParam("drift", 2.0, "N·m/s", "drift rate of the offset"))),
+           (EffectParam("c0", 800.0, "N·m", "offset of the torque channel at t = 0", -50e3, 50e3),
+            EffectParam("drift", 2.0, "N·m/s", "drift rate of the offset", -1e3, 1e3))),
     Effect("time_delay", "a channel lagging the others",
            "fast changes, reversals", "sensor", "delay",
-           (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel"),)),
+           (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel", 0.0, 2.0),)),
     Effect("asymmetric_friction", "Coulomb level and viscous slope that differ with the direction "
            "of motion", "positive vs negative speeds; the EMPS drive's known gap", "output", "d_v",
            (EffectParam("d_v", 8000.0, "N·m·s/rad",
-                        "extra viscous slope in the positive direction"),
+                        "extra viscous slope in the positive direction", 0.0, 1e5),
             EffectParam("d_c", 0.0, "N·m", "extra Coulomb friction in the positive direction "
                         "(against Eq. 4's Coulomb term it acts as a constant torque, which a "
-                        "diagnosis cannot tell from a torque offset)"))),
+                        "diagnosis cannot tell from a torque offset)", -20e3, 20e3))),
 )}
 
 EFFECT_NAMES: tuple[str, ...] = tuple(VOCABULARY)
 
 
-def resolve_effects(spec: Mapping[str, Mapping[str, float] | None]) -> dict[str, dict[str, float]]:
-    """Validate an injection spec {name: {param: value}} against the vocabulary and fill the
-    defaults. Unknown names are refused with the list of known ones."""
+def check_effects(spec: Mapping[str, Mapping[str, float] | None]
+                  ) -> dict[str, dict[str, float]]:
+    """Validate an injection spec {name: {param: value}} against the vocabulary: unknown
+    effects and parameters are refused by name, and so is a value that is NaN, ±inf or outside
+    its parameter's range. Returns the given values as floats (no defaults filled)."""
     out = {}
     for name, given in spec.items():
         if name not in VOCABULARY:
             raise ValueError(f"unknown effect {name!r}; the vocabulary is {list(EFFECT_NAMES)}")
-        out[name] = VOCABULARY[name].resolve(given)
+        out[name] = VOCABULARY[name].check(given)
     return out
+
+
+def resolve_effects(spec: Mapping[str, Mapping[str, float] | None]) -> dict[str, dict[str, float]]:
+    """Validate an injection spec {name: {param: value}} (check_effects) and fill the
+    defaults."""
+    return {name: VOCABULARY[name].resolve(given) for name, given in check_effects(spec).items()}
 
 
 def parse_effect(text: str) -> tuple[str, dict[str, float]]:
     """'NAME' or 'NAME:k=v,k=v' (the command line's --effect syntax) → (name, {param: value}).
-    Raises ValueError naming what is wrong; the names are checked by resolve_effects."""
+    Raises ValueError naming what is wrong (check_effects: the name, the parameters, their
+    ranges)."""
     name, _, rest = text.partition(":")
     params: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in rest.split(","))):
@@ -125,6 +176,7 @@ def parse_effect(text: str) -> tuple[str, dict[str, float]]:
             raise ValueError(f"effect parameter {key}={value!r} is not a number") from None
     if not name.strip():
         raise ValueError(f"effect {text!r} has no name")
+    check_effects({name.strip(): params})
     return name.strip(), params
 
 

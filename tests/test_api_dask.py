@@ -4,7 +4,10 @@ RIG_DASK_SCHEDULER. An identification job (MH, 4 chains) and a sensitivity job s
 same numbers the local path gives for the same seed, and their results name the Dask tasks and
 workers that ran the job and each chain / Sobol block; progress advances while the chains run on
 the cluster and a cancel stops the job there; a Dask worker killed (SIGKILL) while it runs the job
-task and a chain does not lose the job: it ends 'succeeded', run by the surviving worker."""
+task and a chain does not lose the job: it ends 'succeeded', run by the surviving worker.
+The Dask workers name the database in their own environment (RIG_DB_URL): the URL, password and
+all, is never a task argument. A tls:// scheduler is reached with the certificates of the
+settings (RIG_DASK_TLS_*), and a client without them is refused."""
 
 from __future__ import annotations
 
@@ -34,30 +37,40 @@ def free_port() -> int:
 class Cluster:
     """A scheduler and two workers (no nanny: a killed worker stays dead) on loopback."""
 
-    def __init__(self, tmp: Path):
+    def __init__(self, tmp: Path, db_url: str, tls: dict[str, str] | None = None,
+                 n_workers: int = 2):
         from distributed import Client
 
-        self.address = f"tcp://127.0.0.1:{free_port()}"
+        self.address = f"{'tls' if tls else 'tcp'}://127.0.0.1:{free_port()}"
+        self.env = {**os.environ, "RIG_DB_URL": db_url}     # the workers' database
+        tls_args = ["--tls-ca-file", tls["ca"], "--tls-cert", tls["cert"],
+                    "--tls-key", tls["key"]] if tls else []
         self.procs: list[subprocess.Popen] = []
         self.logs = []
         self.procs.append(self._start(tmp, "scheduler", [
             "scheduler", "--host", "127.0.0.1", "--port", self.address.rsplit(":", 1)[1],
-            "--no-dashboard"]))
-        for i in range(2):
+            "--no-dashboard", *tls_args]))
+        for i in range(n_workers):
             self.procs.append(self._start(tmp, f"worker{i}", [
                 "worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--no-nanny",
                 "--no-dashboard", "--name", f"w{i}", "--local-directory", str(tmp / f"w{i}"),
-                "--death-timeout", "60"]))
-        self.client = Client(self.address, timeout=30, set_as_default=False)
-        self.client.wait_for_workers(2, timeout=60)
+                "--death-timeout", "60", *tls_args]))
+        security = None
+        if tls:
+            from distributed.security import Security
+            security = Security(tls_ca_file=tls["ca"], tls_client_cert=tls["cert"],
+                                tls_client_key=tls["key"], require_encryption=True)
+        self.client = Client(self.address, timeout=30, set_as_default=False, security=security)
+        self.client.wait_for_workers(n_workers, timeout=60)
         self.pids = self.client.run(os.getpid)          # worker address -> pid
-        assert all(a.startswith("tcp://127.0.0.1:") for a in self.pids), self.pids  # loopback
+        assert all(a.startswith(self.address.split("//")[0] + "//127.0.0.1:")
+                   for a in self.pids), self.pids       # loopback
 
     def _start(self, tmp: Path, name: str, args: list[str]) -> subprocess.Popen:
         log = open(tmp / f"{name}.log", "w")
         self.logs.append(log)
         return subprocess.Popen([DASK, *args], stdout=log, stderr=subprocess.STDOUT,
-                                cwd=tmp, start_new_session=True)
+                                cwd=tmp, start_new_session=True, env=self.env)
 
     def kill_worker(self, address: str) -> None:
         os.kill(self.pids[address], signal.SIGKILL)
@@ -78,8 +91,15 @@ class Cluster:
 
 
 @pytest.fixture(scope="module")
-def cluster(tmp_path_factory):
-    c = Cluster(tmp_path_factory.mktemp("dask"))
+def db_url(tmp_path_factory):
+    """The service's database (SQLite), which the Dask workers are told by RIG_DB_URL."""
+    with database("sqlite", tmp_path_factory) as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory, db_url):
+    c = Cluster(tmp_path_factory.mktemp("dask"), db_url)
     try:
         yield c
     finally:
@@ -87,7 +107,7 @@ def cluster(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def svc(cluster, tmp_path_factory):
+def svc(cluster, db_url):
     """The service on a SQLite database with two stored runs, RIG_DASK_SCHEDULER set for its
     worker processes; yields (client, headers, store, runs)."""
     from fastapi.testclient import TestClient
@@ -100,15 +120,14 @@ def svc(cluster, tmp_path_factory):
     old = os.environ.get("RIG_DASK_SCHEDULER")
     os.environ["RIG_DASK_SCHEDULER"] = cluster.address
     try:
-        with database("sqlite", tmp_path_factory) as url:
-            store = Store(url)
-            runs = store_runs(store)
-            token = create_token(store, "dask-test", ["operator"])
-            st = Settings.from_env(db_url=url, workers=2, job_heartbeat_s=0.5)
-            assert st.dask_scheduler == cluster.address
-            with TestClient(create_app(st)) as client:
-                yield client, {"Authorization": f"Bearer {token}"}, store, runs
-            store.close()
+        store = Store(db_url)
+        runs = store_runs(store)
+        token = create_token(store, "dask-test", ["operator"])
+        st = Settings.from_env(db_url=db_url, workers=2, job_heartbeat_s=0.5)
+        assert st.dask_scheduler == cluster.address
+        with TestClient(create_app(st)) as client:
+            yield client, {"Authorization": f"Bearer {token}"}, store, runs
+        store.close()
     finally:
         if old is None:
             os.environ.pop("RIG_DASK_SCHEDULER", None)
@@ -281,3 +300,86 @@ def test_a_killed_dask_worker_does_not_lose_the_job(svc, cluster):
     chains = [t for t in where["tasks"] if "-run_chain-" in t["key"]]
     assert len(chains) == 4 and {t["worker"] for t in chains} == {survivor}
     assert fit["diagnostics"]["chains"] == 4 and max(fit["diagnostics"]["rhat"]) < 1.05
+
+
+# --- no database URL in task arguments; TLS -----------------------------------------------------
+
+class _Progress:
+    """What DaskJobs.run needs of a JobProgress: the claiming worker's name and a check."""
+    worker = "test-claimer"
+
+    def check(self) -> None:
+        pass
+
+
+def test_the_database_url_is_never_a_task_argument(cluster, svc):
+    """A service whose URL holds a password submits a job: the task's arguments carry the URL
+    masked, never the password; the Dask worker opens its own RIG_DB_URL and, that being
+    another database, refuses with both named (masked)."""
+    from api.dask_backend import DaskJobs
+
+    secret_url = "postgresql+psycopg://rig:S3CRET-pw@127.0.0.1:1/rig"
+    jobs = DaskJobs(cluster.address, secret_url)
+    sent = []
+    real_submit = jobs.client.submit
+
+    def recording_submit(fn, *args, **kwargs):
+        sent.append((fn, args, kwargs))
+        return real_submit(fn, *args, **kwargs)
+    jobs.client.submit = recording_submit
+    try:
+        job = {"id": 999_999, "kind": "identification", "attempts": 1,
+               "params": {"run_ids": [svc[3]["fast"]], "model": "eq4", "method": "ls"}}
+        with pytest.raises(RuntimeError) as err:
+            jobs.run(job, _Progress())
+    finally:
+        jobs.close()
+    (fn, args, kwargs), = sent
+    import pickle
+    assert b"S3CRET" not in pickle.dumps((args, kwargs))
+    assert "postgresql+psycopg://rig:***@127.0.0.1:1/rig" in args
+    msg = str(err.value)
+    assert "RIG_DB_URL" in msg and "***" in msg and "S3CRET" not in msg
+
+
+def _self_signed(tmp: Path) -> dict[str, str]:
+    """A self-signed certificate (its own CA) and key for 127.0.0.1, made with openssl."""
+    import shutil
+
+    if shutil.which("openssl") is None:
+        pytest.skip("openssl is needed to make the test certificates")
+    cert, key = tmp / "cert.pem", tmp / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                    "-subj", "/CN=rig-test", "-keyout", str(key), "-out", str(cert),
+                    "-addext", "basicConstraints=critical,CA:TRUE",
+                    "-addext", "subjectAltName=IP:127.0.0.1"],
+                   check=True, capture_output=True)
+    return {"ca": str(cert), "cert": str(cert), "key": str(key)}
+
+
+def test_a_tls_scheduler_is_reached_with_the_certificates_of_the_settings(
+        tmp_path_factory, db_url, monkeypatch):
+    from distributed import Client
+
+    from api.dask_backend import DaskJobs
+    from api.settings import Settings
+
+    tmp = tmp_path_factory.mktemp("dask-tls")
+    tls = _self_signed(tmp)
+    c = Cluster(tmp, db_url, tls=tls, n_workers=1)
+    try:
+        monkeypatch.setenv("RIG_DASK_TLS_CA", tls["ca"])
+        monkeypatch.setenv("RIG_DASK_TLS_CERT", tls["cert"])
+        monkeypatch.setenv("RIG_DASK_TLS_KEY", tls["key"])
+        sec = Settings.from_env(dask_scheduler=c.address).dask_security()
+        assert sec.require_encryption and sec.tls_ca_file == tls["ca"]
+        jobs = DaskJobs(c.address, db_url)           # Security from RIG_DASK_TLS_*
+        try:
+            assert jobs.client.submit(sum, [1, 2], pure=False).result(timeout=30) == 3
+            assert jobs.client.scheduler.address.startswith("tls://")
+        finally:
+            jobs.close()
+        with pytest.raises((OSError, TimeoutError)):   # no certificate: refused
+            Client(c.address.replace("tls://", "tcp://"), timeout=3, set_as_default=False)
+    finally:
+        c.close()

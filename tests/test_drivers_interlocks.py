@@ -9,7 +9,8 @@ from core.plc_map import REGISTER_MAP
 from daq.settings import Settings
 
 SB = REGISTER_MAP.signals["status_bits"]
-QUIET = {"torque": 100e3, "m_bend": 200e3, "f_shear": 80e3, "p_hyd": 20e6, "status_bits": 0}
+QUIET = {"torque": 100e3, "m_bend": 200e3, "f_shear": 80e3, "p_hyd": 20e6, "q": 0.5,
+         "status_bits": 0}
 
 
 def names(trips):
@@ -40,9 +41,29 @@ def test_limits_come_from_settings():
     assert names(il.check_status(dict(QUIET, torque=60e3, f_shear=20e3))) == ["torque", "shear"]
 
 
-def test_nan_does_not_trip_and_plc_bits_do():
+@pytest.mark.parametrize("signal,name", [("torque", "torque"), ("m_bend", "bending"),
+                                         ("f_shear", "shear"), ("p_hyd", "pressure")])
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_an_unknown_reading_trips(signal, name, value):
+    """A NaN (missing) or infinite reading of a limited channel trips: `abs(v) > limit` is
+    false for NaN and would let an unknown torque pass."""
     il = Interlocks(Settings())
-    assert il.check_status(dict(QUIET, torque=math.nan)) == []
+    trips = il.check_status(dict(QUIET, **{signal: value}))
+    assert names(trips) == [name]
+    assert signal in trips[0].message
+    missing = dict(QUIET)
+    del missing[signal]                              # a status without the signal at all
+    assert names(il.check_status(missing)) == [name]
+
+
+def test_an_unknown_motor_temperature_trips():
+    il = Interlocks(Settings())
+    assert il.check_motor_temperature(1, math.nan).name == "motor_temperature"
+    assert il.check_motor_temperature(1, math.inf).name == "motor_temperature"
+
+
+def test_plc_bits_trip():
+    il = Interlocks(Settings())
     assert names(il.check_status(dict(QUIET, status_bits=SB.bit("estop")))) == ["estop"]
     assert names(il.check_status(dict(QUIET, status_bits=SB.bit("watchdog_fault")))) == ["plc_fault"]
 
@@ -56,4 +77,4 @@ def test_motor_temperature_and_links():
     assert Interlocks.drive_link_lost(["a", "b"], 1).name == "drive_link"
     assert Interlocks.operator_estop("test").name == "estop"
     assert set(INTERLOCKS) == {"torque", "bending", "shear", "pressure", "motor_temperature",
-                               "estop", "plc_fault", "plc_link", "drive_link"}
+                               "estop", "plc_fault", "plc_link", "drive_link", "angle"}

@@ -145,3 +145,26 @@ def test_make_safe_runs_when_the_acquisition_code_raises():
                 assert D.state_of(sw) in ("QUICK STOP ACTIVE", "SWITCH ON DISABLED")
         finally:
             net.disconnect()
+
+
+def test_the_standin_watchdog_fails_safe_on_a_nan_timeout():
+    """The stand-in PLC's own watchdog: a NaN or non-positive timeout is refused, and the
+    comparison trips on NaN instead of never tripping (`elapsed > nan` is false)."""
+    import math
+    import threading
+
+    from drivers_fake_live import FakeLiveJoint
+    from simulators.plc import MODE_RUN, MODE_SAFE, PlcProgram
+
+    for bad in (math.nan, math.inf, 0.0, -1.0):
+        with pytest.raises(ValueError, match="watchdog"):
+            PlcProgram(FakeLiveJoint(), threading.RLock(), watchdog_s=bad)
+    now = [100.0]
+    p = PlcProgram(FakeLiveJoint(), threading.RLock(), watchdog_s=0.5, clock=lambda: now[0])
+    p.write_commands(REGISTER_MAP.command.encode({"service_heartbeat": 1}))
+    p.scan()
+    assert p.mode == MODE_RUN
+    p.watchdog_s = math.nan                      # however it got there
+    now[0] += 0.01
+    p.scan()
+    assert p.mode == MODE_SAFE and p.watchdog_fault
