@@ -1,10 +1,18 @@
 """`rig identify RUN... --model eq4|eq5|eq11|eq9[+EFFECT...] --method ls|exact|mh|sghmc|hmc[,...]
-[--test RUN...] [--json] [--out DIR]`: identify a joint model from run files and print the
-paper-layout table (several methods, comma-separated, come out side by side).
+[--test RUN...] [--json] [--out DIR] [--db URL] [--no-store]`: identify a joint model from run
+files or stored runs and print the paper-layout table (several methods, comma-separated, come out
+side by side).
 
---json prints Fit.as_dict() (a list when several methods were asked for); --out DIR writes
-fit_<method>.json, report.txt and the figures (predicted vs measured, posterior histograms,
-corner plot, autocorrelation, R-hat trace) as SVG."""
+RUN is a run file (<stem>.csv/.parquet with <stem>.json beside it, or an EMPS .mat record) or the
+integer id of a stored run, as for `rig diagnose`. When every training and held-out run is a
+stored run, each fit is stored with its runs (db.fits: the `results` rows the API's
+identification jobs write, linked 'train'/'test', with the predicted-vs-measured series its
+report draws) unless --no-store; `rig fits` lists them, `rig show RUN` names those made on a
+run, `rig export --fit ID` writes one as JSON.
+
+--json prints Fit.as_dict() (a list when several methods were asked for), with `fit_id` when it
+was stored; --out DIR writes fit_<method>.json, report.txt and the figures (predicted vs
+measured, posterior histograms, corner plot, autocorrelation, R-hat trace) as SVG."""
 
 from __future__ import annotations
 
@@ -13,7 +21,8 @@ import argparse
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN",
-                   help="training run files (<stem>.csv/.parquet with <stem>.json beside it)")
+                   help="training runs: run files (<stem>.csv/.parquet with <stem>.json beside "
+                        "it, or an EMPS .mat record) or stored run ids")
     p.add_argument("--model", default="eq4",
                    help="eq4 (rigid body + friction, default), eq5 (elastic joint), eq11 "
                         "(Bouc–Wen output torque), eq9 (Bouc–Wen α, β, γ); add effects of "
@@ -22,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="ls, exact, mh, sghmc (linear models); ls, mh, sghmc, hmc (eq9 / eq11 "
                         "with fitted Bouc–Wen); several comma-separated are tabulated side by side")
     p.add_argument("--test", nargs="+", default=None, metavar="RUN",
-                   help="held-out run files: RMSE (Eq. 17) on them")
+                   help="held-out runs (files or stored run ids): RMSE (Eq. 17) on them")
     p.add_argument("--json", action="store_true", help="print the result as JSON (Fit.as_dict)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write the result JSON, the report and the figures (SVG) here")
@@ -53,6 +62,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sobol", action="store_true",
                    help="first-order and total-effect Sobol indices (Eqs. 18–19) of the predicted "
                         "output over each Bayesian fit's posterior marginals (linear models)")
+    p.add_argument("--db", default=None, metavar="URL",
+                   help="database URL for run ids (default: $RIG_DB_URL or ./rig-data/rig.sqlite)")
+    p.add_argument("--no-store", action="store_true",
+                   help="do not store the fits (they are stored when every run is a stored run)")
 
 
 def _parse_bw(text: str | None, model: str):
@@ -71,7 +84,37 @@ def _parse_bw(text: str | None, model: str):
     return out
 
 
+def is_run_id(spec: str) -> bool:
+    """A RUN argument naming a stored run (an integer id) rather than a file."""
+    return spec.isdigit()
+
+
+def load_run(spec: str, store=None):
+    """A RunData from a run file, an EMPS .mat record or (with `store`) a stored run id."""
+    if is_run_id(spec):
+        from core.redact import redact_secrets
+        from db.store import RunNotFound
+        try:
+            return store.load_run(int(spec))
+        except RunNotFound:
+            raise ValueError(f"no stored run {spec} in {redact_secrets(store.url)}") from None
+    if spec.lower().endswith(".mat"):
+        from core.emps import load_emps
+        return load_emps(spec)
+    from core.runfile import read_run
+    return read_run(spec)
+
+
 def run(args: argparse.Namespace) -> int:
+    specs = list(args.runs) + list(args.test or [])
+    if not any(is_run_id(s) for s in specs):
+        return _run(args, None)
+    from db.store import Store
+    with Store(args.db) as store:
+        return _run(args, store)
+
+
+def _run(args: argparse.Namespace, store) -> int:
     import json
     import sys
     from pathlib import Path
@@ -81,12 +124,12 @@ def run(args: argparse.Namespace) -> int:
     from estimator.identify import identify_detailed
     from estimator.preprocess import PrepOptions
     from estimator.tables import report
-    from core.runfile import RunFileError, read_run
+    from core.runfile import RunFileError
 
     methods = [m.strip() for m in args.method.split(",") if m.strip()]
     try:
-        train = [read_run(r) for r in args.runs]
-        test = [read_run(r) for r in args.test] if args.test else None
+        train = [load_run(r, store) for r in args.runs]
+        test = [load_run(r, store) for r in args.test] if args.test else None
         model = args.model + "".join(f"+{e}" for e in args.effect)
         opts = {"chains": args.chains, "seed": args.seed}
         base = model.split("+")[0]
@@ -107,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         if args.warmup is not None:
             opts["warmup"] = args.warmup
         results = [identify_detailed(train, model, m, test, **dict(opts)) for m in methods]
-    except (RunFileError, ValueError, KeyError, TypeError) as e:
+    except (RunFileError, OSError, ValueError, KeyError, TypeError) as e:
         print(f"rig identify: {e}", file=sys.stderr)
         return 2
     fits = [f for f, _ in results]
@@ -126,17 +169,23 @@ def run(args: argparse.Namespace) -> int:
         from estimator.tables import sobol_table
         text += "".join("\n\n" + sobol_table(sobol[m].table, f"Sobol indices ({m})")
                         for m in sobol)
+    out = [f.as_dict() for f in fits]
+    stored = _store_fits(args, store, fits, train, test or [])
+    for d, fit_id in zip(out, stored):
+        d["fit_id"] = fit_id
     if args.json:
-        out = [f.as_dict() for f in fits]
         print(json.dumps(out[0] if len(out) == 1 else out, indent=2))
     else:
         print(text)
+        if stored:
+            print("\nstored: " + ", ".join(f"fit {i} ({f.method})" for i, f in zip(stored, fits))
+                  + f" — `rig fits`, `rig export --fit {stored[0]}`")
     if args.out:
         from estimator import plots
         d = Path(args.out)
         d.mkdir(parents=True, exist_ok=True)
-        for f in fits:
-            (d / f"fit_{f.method}.json").write_text(json.dumps(f.as_dict(), indent=2))
+        for f, fd in zip(fits, out):
+            (d / f"fit_{f.method}.json").write_text(json.dumps(fd, indent=2))
         (d / "report.txt").write_text(text + "\n")
         ds = results[0][1]
         if ds is not None:
@@ -164,6 +213,51 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"\nwrote {d}/")
     return 0
+
+
+STORED_OPTIONS = ("model", "method", "effect", "bw", "n", "chains", "draws", "warmup", "seed",
+                  "prior", "tau_scale", "cutoff", "decimate", "min_speed", "sobol")
+"""The `rig identify` options kept with a stored fit (extra['identify_options']), so that the
+fit can be made again."""
+
+
+def _store_fits(args: argparse.Namespace, store, fits: list, train: list, test: list) -> list[int]:
+    """Store each fit with its runs (db.fits.save_fit, the records the API's identification jobs
+    write) when every run is a stored run; returns the fit ids (empty when nothing was stored)."""
+    import sys
+
+    if store is None or args.no_store:
+        return []
+    specs = list(args.runs) + list(args.test or [])
+    files = [s for s in specs if not is_run_id(s)]
+    if files:
+        print(f"rig identify: fit not stored: {', '.join(files)} "
+              f"{'is a file, not a stored run' if len(files) == 1 else 'are files, not stored runs'}"
+              " (`rig import` them first)", file=sys.stderr)
+        return []
+    from api.fit_series import prediction_series
+    from db.fits import save_fit
+
+    train_ids = [int(s) for s in args.runs]
+    test_ids = [int(s) for s in args.test or []]
+    roles = {i: "train" for i in train_ids} | {i: "test" for i in test_ids}
+    if len(roles) < len(train_ids) + len(test_ids):
+        print("rig identify: fit not stored: a run is given twice or both as a training and a "
+              "held-out run", file=sys.stderr)
+        return []
+    runs = ([(i, "train", r) for i, r in zip(train_ids, train)]
+            + [(i, "test", r) for i, r in zip(test_ids, test)])
+    options = {k: getattr(args, k) for k in STORED_OPTIONS if hasattr(args, k)}
+    ids = []
+    for fit in fits:
+        fit.extra["identify_options"] = options
+        try:
+            fit.extra["series"] = prediction_series(fit, runs)
+        except (KeyError, ValueError) as e:     # the fit is stored without its figure
+            print(f"rig identify: no predicted-vs-measured series for {fit.method}: {e}",
+                  file=sys.stderr)
+        ids.append(save_fit(store, fit, roles))
+    return ids
 
 
 def _sobol(results) -> dict:

@@ -1,6 +1,7 @@
 """`rig show RUN`: one run's summary — status, exit status and reason, metadata, channels with
-units and missing-sample counts, phases, interruptions, and the acceptance indicators of
-Table 11 (core/acceptance.py) for a loading run."""
+units and missing-sample counts, phases, interruptions, the acceptance indicators of
+Table 11 (core/acceptance.py) for a loading run, and the fits made on it (db.fits: by
+`rig identify` or by the API's jobs, with the run's role in each)."""
 
 from __future__ import annotations
 
@@ -46,7 +47,20 @@ def summarise(store, run_id: int) -> dict:
     return {**info, "channels": channels,
             "phases": json_safe(phases.to_dict("records")),
             "interruptions": store.interruptions(run_id),
-            "acceptance": [i.as_dict() for i in indicators]}
+            "acceptance": [i.as_dict() for i in indicators],
+            "fits": fits_on_run(store, run_id)}
+
+
+def fits_on_run(store, run_id: int) -> list[dict]:
+    """The stored fits that used the run, newest first (db.fits.list_fits), each with `role`:
+    how this run served it ('train', 'test')."""
+    from db.fits import list_fits
+
+    out = []
+    for f in list_fits(store, run_id=run_id, limit=1000):
+        f["role"] = ",".join(sorted({r["role"] for r in f["runs"] if r["run_id"] == run_id}))
+        out.append(f)
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,4 +114,10 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join("  " + line for line in table.splitlines()))
     else:
         print("acceptance indicators: not a loading run")
+    if s["fits"]:
+        from commands.cmd_fits import format_table
+        print(f"fits made on this run ({len(s['fits'])}; `rig export --fit ID` writes one):")
+        print("\n".join("  " + line for line in format_table(s["fits"], role=True).splitlines()))
+    else:
+        print("fits made on this run: none")
     return 0

@@ -138,7 +138,9 @@ def ess_tail(draws: np.ndarray) -> np.ndarray:
     out = np.empty(a.shape[2])
     for j in range(a.shape[2]):
         x = _split(a[:, :, j])
-        q05, q95 = np.quantile(x, [0.05, 0.95])
+        # quantiles of all the draws (Stan's posterior, ArviZ): with an odd draw count the
+        # split drops each chain's middle draw, which must not move the thresholds
+        q05, q95 = np.quantile(a[:, :, j], [0.05, 0.95])
         e = [_ess_basic((x <= q05).astype(float)), _ess_basic((x <= q95).astype(float))]
         out[j] = np.nanmin(e) if not np.all(np.isnan(e)) else np.nan
     return out
