@@ -27,6 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=1, help="emulator seed (default 1)")
     parser.add_argument("--quick", action="store_true",
                         help="one speed and direction per scheme (for a fast look)")
+    parser.add_argument("--serve", action="store_true",
+                        help="at the end, serve the operator console on the demo's database and "
+                             "print its address and an operator token (Ctrl-C stops it)")
+    parser.add_argument("--port", type=int, default=8000,
+                        help="with --serve: the console's port on 127.0.0.1 (default 8000)")
     parser.add_argument("--report-dir", default="rig-demo-report",
                         help="folder the identification reports are written to "
                              "(default ./rig-demo-report)")
@@ -383,4 +388,28 @@ def run(args: argparse.Namespace) -> int:
         print(f"   job {j['id']} {j['state']}: {(j.get('error') or '').splitlines()[:1]}")
 
     print(f"\ndemo finished in {time.perf_counter() - t0:.1f} s")
+    if args.serve:
+        serve_console(args.port)
     return 1 if failed else 0
+
+
+def serve_console(port: int, host: str = "127.0.0.1") -> None:
+    """Serve the REST service and its operator console on the demo's database (loopback only),
+    with one job worker, after printing the console's address and a fresh operator token (the
+    newcomer's key to it; `rig token revoke` ends it). Blocks until Ctrl-C."""
+    import uvicorn
+
+    from api.app import create_app
+    from api.settings import Settings
+    from db.engine import database_url
+    from db.store import Store
+    from db.tokens import create_token
+
+    url = database_url()
+    with Store(url) as store:
+        token = create_token(store, "demo-console", ["operator"])
+    st = Settings.from_env(host=host, port=port, workers=1, db_url=url)
+    print(f"\n== The operator console: open http://{host}:{port}/ and sign in with the operator "
+          f"token\n   {token}\n   (start a scheme on the emulator from 'Run a scheme' and watch it "
+          "on 'Live'; Ctrl-C stops the service)", flush=True)
+    uvicorn.run(create_app(st), host=host, port=port, log_level="warning")
