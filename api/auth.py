@@ -1,10 +1,19 @@
-"""API token roles: viewer < operator < admin. A token's role is stored in its `scopes`
-list (db.tokens keeps only the SHA-256 hash of the secret)."""
+"""API token roles: viewer < operator < rig-operator < admin. A token's role is stored in its
+`scopes` list (db.tokens keeps only the SHA-256 hash of the secret).
+
+- viewer: reads everything, and may e-stop a running acquisition (anyone signed in can stop
+  the machine);
+- operator: submits and cancels jobs; starts, stops schemes on the emulator;
+- rig-operator: also starts schemes on the real rig (target 'rig');
+- admin: also manages tokens.
+"""
 
 from __future__ import annotations
 
-ROLES: tuple[str, ...] = ("viewer", "operator", "admin")
+ROLES: tuple[str, ...] = ("viewer", "operator", "rig-operator", "admin")
 """In increasing order of rights: each role can do what the ones before it can."""
+RIG_ROLE = "rig-operator"
+"""The least role that may start a scheme on the real rig."""
 
 
 def role_rank(role: str) -> int:

@@ -49,11 +49,17 @@ def current_caller(store: StoreDep,
     return Caller(token_id=row.id, name=row.name, role=role)
 
 
+def check_role(caller: Caller, role: str, what: str = "this") -> None:
+    """403 unless the caller holds at least `role` (for checks that depend on the request,
+    e.g. the target of a scheme)."""
+    if not allows(caller.role, role):
+        raise HTTPException(403, f"{what} needs the {role!r} role; the token has {caller.role!r}")
+
+
 def require(role: str):
     """A dependency: the caller, who must hold at least `role` (403 otherwise)."""
     def dep(caller: Annotated[Caller, Depends(current_caller)]) -> Caller:
-        if not allows(caller.role, role):
-            raise HTTPException(403, f"this needs the {role!r} role; the token has {caller.role!r}")
+        check_role(caller, role)
         return caller
     return dep
 

@@ -5,7 +5,17 @@ database while it runs, with a progress bar and a live line of the key channels.
     rig emulate --time-scale 10 &                       # or the real rig, by settings
     RIG_PLC_POLL_HZ=200 rig run scheme1 --speed 3000 --direction 1 --operator alice
     rig run scheme3 --sample-rate 20 --periods 2
+    rig run --spec run.json                             # the same run as one JSON document
     rig runs; rig show RUN
+
+The scheme options are derived from the schemes' own parameters (core.schemes: unit, default,
+range); `--spec FILE` (or `-` for stdin) gives the whole run as one JSON document
+(core.schemes.RunSpec), which is how the service's acquisition process starts it. With
+`--json-events` stdout carries only JSON lines, one event each (`started`, `run_created`,
+`progress`, `run_ended`, `run_failed`); the human lines then go to stderr.
+
+The database is named by RIG_DB_URL (or `--db`; a password on a command line is visible to
+every user of the machine, so prefer the variable); printed URLs have their password masked.
 
 Exit code 0 when the run ends `success`, 1 on `abort` or `fail`, 2 on bad arguments.
 """
@@ -13,22 +23,55 @@ Exit code 0 when the run ends `success`, 1 on `abort` or `fail`, 2 on bad argume
 from __future__ import annotations
 
 import argparse
+import json
+import numbers
+import os
+import sys
+from typing import Any
 
 from core.effects import parse_effect
-from core.schemes import SCHEME_ARGS
+from core.schemes import RunSpec, SchemeParam, scheme_options
+
+RUN_OPTIONS = ("operator", "notes", "effect", "reset_watchdog", "source", "rig_name")
+"""Options that describe the run (they are in a --spec document instead)."""
+
+
+def _option_help(per: dict[int, SchemeParam]) -> str:
+    """Help of one scheme option: what, unit, range, the schemes it applies to, defaults."""
+    p = next(iter(per.values()))
+    b = p.bounds
+    unit = f" [{b.unit}]" if b.unit else ""
+    docs = list(dict.fromkeys(q.bounds.doc for q in per.values()))
+    what = " / ".join(docs)
+    defaults = {q.default for q in per.values()}
+    if len(defaults) == 1:
+        default = f"default {p.default:g}"
+    else:
+        default = "default " + ", ".join(f"{q.default:g} (scheme {n})" for n, q in per.items())
+    which = ("scheme " if len(per) == 1 else "schemes ") + ", ".join(map(str, per))
+    rng = b.interval() if b.choices is not None else "in " + b.interval()
+    return f"{what}{unit}, {rng}; {which}; {default}"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scheme", choices=("scheme1", "scheme2", "scheme3"))
-    for dest, (_, typ, text) in SCHEME_ARGS.items():
-        parser.add_argument("--" + dest.replace("_", "-"), dest=dest, type=typ, help=text)
+    parser.add_argument("scheme", nargs="?", choices=("scheme1", "scheme2", "scheme3"),
+                        help="the scheme to run (or give the whole run with --spec)")
+    parser.add_argument("--spec", metavar="FILE",
+                        help="the run as one JSON document {scheme, params {field: value}, "
+                             "operator, notes, effects, source, rig_name, reset_watchdog}; "
+                             "'-' reads stdin (with --control-stdin: its first line, the "
+                             "commands follow); replaces the scheme and the run's options")
+    for option, (_, typ, per) in scheme_options().items():
+        parser.add_argument("--" + option.replace("_", "-"), dest=option, type=typ,
+                            help=_option_help(per))
     parser.add_argument("--operator", help="who runs it (stored with the run)")
-    parser.add_argument("--notes", default="", help="free text stored with the run")
+    parser.add_argument("--notes", help="free text stored with the run")
     parser.add_argument("--config", metavar="FILE",
                         help="settings file (TOML/JSON, [daq] table; default $RIG_CONFIG); "
                              "its [emulate.emulator] effects are recorded for emulated runs")
     parser.add_argument("--db", metavar="URL", help="database URL (default $RIG_DB_URL or "
-                                                    "./rig-data/rig.sqlite)")
+                                                    "./rig-data/rig.sqlite; prefer the "
+                                                    "variable for a URL with a password)")
     parser.add_argument("--source", choices=("emulator", "rig"),
                         help="what the settings point at (default: emulator when the PLC is "
                              "on a loopback address, else rig)")
@@ -40,27 +83,56 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="reset a PLC heartbeat-watchdog fault latched when the previous "
                              "session ended (never an e-stop or a limit trip)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
-    parser.add_argument("--json-progress", action="store_true",
-                        help="progress as JSON lines on stdout (for a supervising service)")
+    parser.add_argument("--json", action="store_true",
+                        help="print the run's end record as one JSON object on stdout "
+                             "(README, \"JSON output\"); progress and messages go to stderr")
+    parser.add_argument("--json-events", action="store_true",
+                        help="stdout carries only JSON lines, one event each (started, "
+                             "run_created, progress, run_ended, run_failed), for a supervising "
+                             "service; the human lines go to stderr")
     parser.add_argument("--control-stdin", action="store_true",
                         help="obey commands read from stdin: `stop` (make safe, abort), "
                              "`estop REASON`; end of input stops the run (its supervisor is gone)")
 
 
-def scheme_params(args: argparse.Namespace, number: int) -> dict:
-    """Scheme parameters given on the command line; refuses ones the scheme does not have."""
-    from dataclasses import fields
-    from core.schemes import SCHEMES
-    known = {f.name for f in fields(SCHEMES[number])}
+def scheme_params(args: argparse.Namespace, number: int) -> dict[str, Any]:
+    """Scheme parameters given on the command line {dataclass field: value}; refuses options
+    the scheme does not have."""
     out = {}
-    for dest, (name, _, _) in SCHEME_ARGS.items():
-        v = getattr(args, dest, None)
+    for option, (name, _, per) in scheme_options().items():
+        v = getattr(args, option, None)
         if v is None:
             continue
-        if name not in known:
-            raise ValueError(f"--{dest.replace('_', '-')} does not apply to scheme {number}")
+        if number not in per:
+            raise ValueError(f"--{option.replace('_', '-')} does not apply to scheme {number}")
         out[name] = v
     return out
+
+
+def run_spec(args: argparse.Namespace) -> RunSpec:
+    """The run the arguments ask for: the --spec document, or the scheme and options (one or
+    the other; ValueError when mixed or missing)."""
+    if args.spec is None:
+        if args.scheme is None:
+            raise ValueError("give the scheme (scheme1, scheme2, scheme3) or --spec FILE")
+        number = int(args.scheme[-1])
+        return RunSpec(scheme=number, params=scheme_params(args, number),
+                       operator=args.operator, notes=args.notes or "",
+                       effects=parse_effects(args.effect) if args.effect else None,
+                       source=args.source, rig_name=args.rig_name,
+                       reset_watchdog=args.reset_watchdog)
+    given = [o for o in scheme_options() if getattr(args, o, None) is not None]
+    given += [o for o in RUN_OPTIONS if getattr(args, o, None) not in (None, False, [])]
+    if args.scheme is not None or given:
+        what = ", ".join(["the scheme"] * (args.scheme is not None)
+                         + ["--" + o.replace("_", "-") for o in given])
+        raise ValueError(f"--spec holds the whole run: give {what} in it, not as arguments")
+    if args.spec == "-":
+        text = sys.stdin.readline() if args.control_stdin else sys.stdin.read()
+    else:
+        with open(args.spec, encoding="utf-8") as f:
+            text = f.read()
+    return RunSpec.from_json(text)
 
 
 def parse_effects(specs: list[str]) -> dict[str, dict[str, float]]:
@@ -79,8 +151,9 @@ def _is_loopback(host: str) -> bool:
 
 
 class LiveLine:
-    """A progress bar and the key channels: one rewritten line on a terminal, one line per
-    update otherwise (logs, pipes)."""
+    """A progress bar and the key channels on stderr: one line rewritten in place on a
+    terminal, cut to the terminal's width (read at every update, so a resized window is
+    followed) and never wrapping; one plain line per update otherwise (logs, pipes)."""
 
     KEYS = (("q", "q", "rad", 1.0), ("torque", "T", "kN·m", 1e-3),
             ("torque_load", "τL", "kN·m", 1e-3), ("i_m1", "i1", "A", 1.0),
@@ -99,7 +172,15 @@ class LiveLine:
         line = (f"[{bar}] {100 * p.fraction:5.1f}% t={p.t:.1f}/{p.duration:.1f} s "
                 f"phase={p.phase} n={p.n_samples} missed={p.missed} {vals}")
         if self.tty:
-            self.stream.write("\r" + line[:160].ljust(160))
+            import shutil
+            cols = shutil.get_terminal_size((80, 24)).columns
+            try:
+                cols = os.get_terminal_size(self.stream.fileno()).columns
+            except (OSError, ValueError, AttributeError):
+                pass
+            # one column short of the width: a full-width line wraps on some terminals;
+            # "\x1b[K" clears what a longer previous line left instead of padding with blanks
+            self.stream.write("\r" + line[:max(cols - 1, 1)] + "\x1b[K")
         else:
             self.stream.write(line + "\n")
         self.stream.flush()
@@ -110,24 +191,42 @@ class LiveLine:
             self.stream.flush()
 
 
-class JsonProgress:
-    """Progress as one JSON object per line: run id, plan time and duration [s], fraction,
-    phase, sample counts and the key channels of LiveLine (SI units; NaN as null)."""
+class JsonEvents:
+    """The run reported as JSON lines, one event each, with an explicit `event` type (SI units;
+    NaN as null): `started` (plan, source, duration, samples), `run_created` (run_id, once the
+    run is stored), `progress` (run id, plan time and duration [s], fraction, phase, sample
+    counts, every numeric channel of the latest sample), `run_ended` (the outcome) or `run_failed` (reason).
+    Also the engine's progress callback."""
 
     def __init__(self, stream, run_id) -> None:
         self.stream = stream
         self.run_id = run_id
         """Callable returning the run id (None before the run is stored)."""
+        self.announced: int | None = None
+
+    def emit(self, event: str, **fields: Any) -> None:
+        from core.redact import redact_secrets
+        for k, v in fields.items():
+            if isinstance(v, str):
+                fields[k] = redact_secrets(v)
+        self.stream.write(json.dumps({"event": event, **fields}) + "\n")
+        self.stream.flush()
+
+    def announce(self) -> int | None:
+        """`run_created` the first time the run id is known; returns the id."""
+        rid = self.run_id()
+        if rid is not None and self.announced is None:
+            self.announced = rid
+            self.emit("run_created", run_id=rid)
+        return rid
 
     def __call__(self, p) -> None:
-        import json
-        chans = {k: (float(p.latest[k]) if p.latest[k] == p.latest[k] else None)
-                 for k, *_ in LiveLine.KEYS if k in p.latest}
-        self.stream.write(json.dumps({
-            "event": "progress", "run_id": self.run_id(), "t": p.t, "duration": p.duration,
-            "fraction": p.fraction, "phase": p.phase or None, "n_samples": p.n_samples,
-            "missed": p.missed, "channels": chans}) + "\n")
-        self.stream.flush()
+        rid = self.announce()
+        chans = {k: (float(v) if v == v else None) for k, v in p.latest.items()
+                 if isinstance(v, numbers.Real) and k != "t"}   # every numeric channel
+        self.emit("progress", run_id=rid, t=p.t, duration=p.duration, fraction=p.fraction,
+                  phase=p.phase or None, n_samples=p.n_samples, missed=p.missed,
+                  channels=chans)
 
     def close(self) -> None:
         pass
@@ -184,41 +283,59 @@ async def run_controlled(engine, plan, read_stdin: bool = False):
 
 def run(args: argparse.Namespace) -> int:
     import asyncio
-    import sys
+    import os
 
+    from core.config_file import read_config_file
+    from core.redact import redact_secrets
     from daq.engine import Engine
     from daq.plans import Plan
     from daq.rig import Rig
-    from db.store import Store
-    from core.config_file import read_config_file
     from daq.settings import Settings
+    from db.store import Store
 
-    number = int(args.scheme[-1])
+    events = JsonEvents(sys.stdout, lambda: engine.writer.run_id if engine.writer else None) \
+        if args.json_events else None
+    human = sys.stderr if events or args.json else sys.stdout
+
+    def say(text: str, stream=None) -> None:
+        print(redact_secrets(text), file=stream or human, flush=True)
+
     try:
-        params = scheme_params(args, number)
-        plan = Plan.of(number, **params)
+        spec = run_spec(args)
+        plan = Plan.of(spec.scheme, **spec.params)
         settings = Settings.load(args.config)
-        effects = parse_effects(args.effect) if args.effect else None
-        import os
+        effects = spec.effects
         cfg = args.config or os.environ.get("RIG_CONFIG")
         if effects is None and cfg:
             emu = read_config_file(cfg, section="emulate").get("emulator") or {}
             if isinstance(emu, dict) and emu.get("effects"):
                 effects = dict(emu["effects"])
-    except (ValueError, TypeError, KeyError) as exc:
-        print(f"rig run: {exc}", file=sys.stderr)
+    except (ValueError, TypeError, KeyError, OSError) as exc:
+        say(f"rig run: {exc}", sys.stderr)
+        if events:
+            events.emit("run_failed", run_id=None, reason=f"bad arguments: {exc}")
         return 2
-    source = args.source or ("emulator" if _is_loopback(settings.plc_host) else "rig")
-    live = None if args.quiet else LiveLine(sys.stdout)
-    if args.json_progress:
-        live = JsonProgress(sys.stdout, lambda: engine.writer.run_id if engine.writer else None)
-    store = Store(args.db)
-    engine = Engine(Rig(settings), store, source=source, rig_name=args.rig_name,
-                    operator=args.operator, effects=effects, notes=args.notes, progress=live,
-                    reset_watchdog_fault=args.reset_watchdog)
-    print(f"rig run: {plan.name} on the {source} ({settings.plc_host}:{settings.plc_port}), "
-          f"{plan.duration:.1f} s of rig time, {plan.n_samples()} samples at "
-          f"{plan.sample_rate_hz:g} Hz, database {store.url}", flush=True)
+    source = spec.source or ("emulator" if _is_loopback(settings.plc_host) else "rig")
+    live = events or (None if args.quiet else LiveLine(sys.stderr))
+    try:
+        store = Store(args.db)
+    except Exception as exc:  # noqa: BLE001 - one line, not a traceback: the store is unreachable
+        first = (str(exc).splitlines() or [""])[0]
+        why = f"cannot open the database: {type(exc).__name__}: {first}"
+        say(f"rig run: {why}", sys.stderr)
+        if events:
+            events.emit("run_failed", run_id=None, reason=why)
+        return 1
+    engine = Engine(Rig(settings), store, source=source, rig_name=spec.rig_name,
+                    operator=spec.operator, effects=effects, notes=spec.notes, progress=live,
+                    reset_watchdog_fault=spec.reset_watchdog)
+    say(f"rig run: {plan.name} on the {source} ({settings.plc_host}:{settings.plc_port}), "
+        f"{plan.duration:.1f} s of rig time, {plan.n_samples()} samples at "
+        f"{plan.sample_rate_hz:g} Hz, database {store.url}")
+    if events:
+        events.emit("started", plan=plan.name, scheme=spec.scheme, source=source,
+                    plc=f"{settings.plc_host}:{settings.plc_port}", duration=plan.duration,
+                    n_samples=plan.n_samples(), sample_rate_hz=plan.sample_rate_hz)
     try:
         outcome = asyncio.run(run_controlled(engine, plan, read_stdin=args.control_stdin))
         if outcome is None:
@@ -227,22 +344,37 @@ def run(args: argparse.Namespace) -> int:
         if live:
             live.close()
         rid = engine.writer.run_id if engine.writer else None
-        print(f"rig run: run {rid} aborted by the operator; the rig was made safe",
-              file=sys.stderr)
+        say(f"rig run: run {rid} aborted by the operator; the rig was made safe", sys.stderr)
+        if events:
+            events.announce()
+            events.emit("run_failed", run_id=rid, reason="aborted by the operator")
         return 1
     except Exception as exc:  # noqa: BLE001 - report the failure; the engine stored it
         if live:
             live.close()
         rid = engine.writer.run_id if engine.writer else None
         what = f"run {rid} failed" if rid is not None else "failed before the run started"
-        print(f"rig run: {what}: {type(exc).__name__}: {exc}", file=sys.stderr)
+        say(f"rig run: {what}: {type(exc).__name__}: {exc}", sys.stderr)
+        if events:
+            events.announce()
+            events.emit("run_failed", run_id=rid, reason=f"{what}: {type(exc).__name__}: {exc}")
         return 1
     finally:
         store.close()
     if live:
         live.close()
-    print(f"rig run: run {outcome.run_id} ended {outcome.exit_status}"
-          + (f" ({outcome.reason})" if outcome.reason else "")
-          + f": {outcome.n_samples} samples, {outcome.missed} missed, "
-            f"{outcome.interruptions} interruptions", flush=True)
+    say(f"rig run: run {outcome.run_id} ended {outcome.exit_status}"
+        + (f" ({outcome.reason})" if outcome.reason else "")
+        + f": {outcome.n_samples} samples, {outcome.missed} missed, "
+          f"{outcome.interruptions} interruptions")
+    if events:
+        events.announce()
+        events.emit("run_ended", run_id=outcome.run_id, exit_status=outcome.exit_status,
+                    reason=outcome.reason, n_samples=outcome.n_samples, missed=outcome.missed,
+                    interruptions=outcome.interruptions)
+    elif args.json:
+        print(json.dumps({"run_id": outcome.run_id, "plan": plan.name, "scheme": spec.scheme,
+                          "source": source, "exit_status": outcome.exit_status,
+                          "reason": outcome.reason, "n_samples": outcome.n_samples,
+                          "missed": outcome.missed, "interruptions": outcome.interruptions}))
     return 0 if outcome.exit_status == "success" else 1

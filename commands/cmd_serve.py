@@ -19,8 +19,10 @@ def run(args: argparse.Namespace) -> int:
     from api.app import create_app
     from api.settings import Settings
 
+    from core.redact import redact_secrets
+
     st = Settings.from_env(host=args.host, port=args.port, workers=args.workers, db_url=args.db)
     print(f"serving on http://{st.host}:{st.port} (docs at /docs), {st.workers} job workers, "
-          f"database {st.db_url}", flush=True)
+          f"database {redact_secrets(st.db_url)}", flush=True)
     uvicorn.run(create_app(st), host=st.host, port=st.port, log_level="info")
     return 0

@@ -6,6 +6,11 @@ point, the hydraulic pump and pressure set points and the phase label.
 Pure: no simulator (or driver) import. The emulator (simulators.offline) samples these profiles
 at its 1 kHz internal rate; the data acquisition can use the same plans on the real rig.
 
+Each settable parameter is described once, in its dataclass field (`param`: default, unit, what
+it is, range, the `rig run` option); the schemes check the ranges themselves, and the service's
+request schema (api/routers/schemes.py) and `rig run`'s flags derive from `scheme_params` /
+`scheme_options`. A whole run travels as one `RunSpec` JSON document (`rig run --spec`).
+
 Conventions: motor speeds in rad/s at the motor shaft, signed by the direction of motion; loads
 in N·m at the joint output (positive = the paper's positive loading); angles in rad.
 """
@@ -13,13 +18,15 @@ in N·m at the joint output (positive = the paper's positive loading); angles in
 from __future__ import annotations
 
 import abc
+import json
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from core.effects import resolve_effects
 from core.excitation import ExcitationResult, FourierTrajectory, optimize_excitation
 from core.params import RATED_TORQUE, REDUCTION, JointParams
 
@@ -31,13 +38,119 @@ OUTPUT_SPEED_LIMIT = MOTOR_SPEED_LIMIT_RPM * RPM / REDUCTION
 """Output speed at 3000 r/min behind N = 11000 [rad/s] (≈ 0.0286, Table 10's ~0.03 rad/s)."""
 JOINT_LIMIT = math.pi
 """J4 range ±180° [rad] (rig.md)."""
+RANGE_TORQUE = 180e3
+"""Top of the torque loading range [N·m] (Table 11 item 1: 0–180 kN·m)."""
 
 
-def _check_common(direction: int, sample_rate_hz: float) -> None:
-    if direction not in (1, -1):
-        raise ValueError(f"direction must be +1 or -1, got {direction!r}")
-    if not sample_rate_hz >= 10.0:
-        raise ValueError(f"sample rate must be >= 10 Hz (rig.md), got {sample_rate_hz!r}")
+@dataclass(frozen=True)
+class LimitSet:
+    """The interlock limits a run is held to, chosen by its test purpose and recorded with the
+    run (daq/interlocks.py applies them; the other limits stay the DAQ settings')."""
+    name: str
+    purpose: str
+    max_load: float
+    """Largest dynamometer load a scheme under this set may ask for [N·m]."""
+    torque_limit: float | None
+    """|joint torque| trip [N·m]; None: the DAQ settings' torque_limit (105 % of rated)."""
+    angle_limit: float = JOINT_LIMIT
+    """|output angle| trip [rad], on the homed output encoder (the joint's ±180° travel)."""
+
+
+LIMIT_SETS = {
+    "default": LimitSet("default", "the paper's schemes: loading up to the rated torque",
+                        RATED_TORQUE, None),
+    "range": LimitSet("range", "Table 11 item 1: the torque loading range up to 180 kN·m",
+                      RANGE_TORQUE, 1.05 * RANGE_TORQUE),
+}
+"""The limit sets by name; every scheme runs under "default" unless it names another."""
+
+
+def limit_set_named(name: str) -> LimitSet:
+    """The limit set called `name` (ValueError naming the known ones)."""
+    if name not in LIMIT_SETS:
+        raise ValueError(f"limit set must be one of {', '.join(LIMIT_SETS)}, got {name!r}")
+    return LIMIT_SETS[name]
+
+
+MAX_PHASE_TIME = 600.0
+"""Longest idle, ramp, settle, hold or pause a scheme may ask for [s]."""
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """How a scheme parameter may be set: its unit, what it is, its range and the `rig run`
+    option that sets it. Kept in the dataclass field's metadata (`param`); the schemes check
+    it themselves, the service's request schema and the command line's flags derive from it."""
+    unit: str
+    """SI-style unit ('' for a pure number)."""
+    doc: str
+    """What it is, a short noun phrase (the API's description, the command line's help)."""
+    option: str | None
+    """`rig run --OPTION` (and the API parameter of the same field); None: fixed by the
+    design, not settable from outside (the dataclass still accepts it)."""
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    choices: tuple[int, ...] | None = None
+
+    def interval(self) -> str:
+        """The range as text, e.g. '(0 r/min, 3000 r/min]'."""
+        u = f" {self.unit}" if self.unit else ""
+        if self.choices is not None:
+            return "one of " + ", ".join(f"{c:+d}" for c in self.choices)
+        lo = f"[{self.ge:g}{u}" if self.ge is not None else (
+            f"({self.gt:g}{u}" if self.gt is not None else "(-inf")
+        hi = f"{self.le:g}{u}]" if self.le is not None else "inf)"
+        return f"{lo}, {hi}"
+
+    def check(self, name: str, typ: type, value: Any) -> None:
+        """ValueError naming the parameter, its range and the value, when `value` is out of
+        range or not a number of the field's type (NaN is refused: no comparison holds)."""
+        if isinstance(value, bool) or not isinstance(value, int if typ is int else (int, float)):
+            kind = "an integer" if typ is int else "a number"
+            raise ValueError(f"{name}: {self.doc} must be {kind}, got {value!r}")
+        ok = ((self.choices is None or value in self.choices)
+              and (self.ge is None or value >= self.ge) and (self.gt is None or value > self.gt)
+              and (self.le is None or value <= self.le) and value == value)
+        if not ok:
+            where = self.interval() if self.choices is not None else "in " + self.interval()
+            raise ValueError(f"{name}: {self.doc} must be {where}, got {value!r}")
+
+
+def param(default: Any, unit: str, doc: str, option: str | None, *, ge: float | None = None,
+          gt: float | None = None, le: float | None = None,
+          choices: tuple[int, ...] | None = None) -> Any:
+    """A scheme dataclass field with its default and Bounds (the one place a scheme parameter
+    is described)."""
+    return field(default=default, metadata={"bounds": Bounds(unit, doc, option, ge=ge, gt=gt,
+                                                             le=le, choices=choices)})
+
+
+def _field_type(f: Any) -> type:
+    """int or float: the annotations are strings (postponed evaluation)."""
+    return int if str(f.type).split(" ")[0] == "int" else float
+
+
+def _check_bounds(scheme: Any) -> None:
+    for f in fields(scheme):
+        b = f.metadata.get("bounds")
+        if b is not None:
+            b.check(f.name, _field_type(f), getattr(scheme, f.name))
+
+
+@dataclass(frozen=True)
+class SchemeParam:
+    """One settable parameter of one scheme, as the service and the command line see it."""
+    name: str
+    """The scheme dataclass field."""
+    type: type
+    """int or float."""
+    default: Any
+    bounds: Bounds
+
+
+def _durations(default: float, doc: str, option: str | None) -> Any:
+    return param(default, "s", doc, option, ge=0.0, le=MAX_PHASE_TIME)
 
 
 def _segment_labels(t: ArrayLike, segments: list[tuple[float, float, str]]) -> np.ndarray:
@@ -54,35 +167,36 @@ def _segment_labels(t: ArrayLike, segments: list[tuple[float, float, str]]) -> n
 @dataclass(frozen=True)
 class _LoadingScheme(abc.ABC):
     """Common parameters of the loading schemes 1 and 2 (times in s, torques in N·m)."""
-    motor_speed_rpm: float = 3000.0
-    """Motor speed [r/min]: 300 or 3000 in the paper."""
-    direction: int = 1
-    """Sense of motion, +1 or −1."""
-    load_target: float = RATED_TORQUE
-    """Dynamometer load at the top [N·m] (the rated 120 kN·m)."""
-    accel_time: float = 1.0
-    """Motor speed ramp from rest to speed and back [s] (design: no jolt on the drive train)."""
-    settle_time: float = 1.0
-    """Idle at speed before loading [s] ("start the joint motor ... then load")."""
-    rest_time: float = 1.0
-    """Idle at rest after the motion [s]."""
-    shear_target: float = 90e3
-    """Hydraulic shear during loading [N] (Table 11's 90 kN; bending = shear·arm)."""
-    sample_rate_hz: float = 10.0
-    """Sensor sampling [Hz] (the paper reads the encoder every 0.1 s)."""
+    motor_speed_rpm: float = param(3000.0, "r/min", "motor speed", "speed", gt=0.0,
+                                   le=MOTOR_SPEED_LIMIT_RPM)
+    """Motor speed: 300 or 3000 r/min in the paper."""
+    direction: int = param(1, "", "sense of motion", "direction", choices=(1, -1))
+    load_target: float = param(RATED_TORQUE, "N·m", "load at the top", "load", ge=0.0,
+                               le=RANGE_TORQUE)
+    """Dynamometer load at the top (the rated 120 kN·m); at most its limit set's max_load."""
+    accel_time: float = _durations(1.0, "speed ramp time", "accel_time")
+    """Motor speed ramp from rest to speed and back (design: no jolt on the drive train)."""
+    settle_time: float = _durations(1.0, "idle at speed before loading", "settle_time")
+    """("start the joint motor ... then load")."""
+    rest_time: float = _durations(1.0, "idle at rest after the motion", "rest_time")
+    shear_target: float = param(90e3, "N", "hydraulic shear while loading", "shear", ge=0.0,
+                                le=90e3)
+    """Table 11's 90 kN; bending = shear·arm."""
+    sample_rate_hz: float = param(10.0, "Hz", "sample rate", "sample_rate", ge=10.0, le=1000.0)
+    """The paper reads the encoder every 0.1 s; rig.md asks for at least 10 Hz."""
+    limit_set: str = "default"
+    """The interlock limits the run is held to (LIMIT_SETS): "range" for a torque loading
+    range test above the rated torque (Table 11 item 1)."""
 
     scheme: ClassVar[int] = 0
 
     def __post_init__(self) -> None:
-        _check_common(self.direction, self.sample_rate_hz)
-        if not 0.0 < self.motor_speed_rpm <= MOTOR_SPEED_LIMIT_RPM:
-            raise ValueError(f"motor speed must be in (0, {MOTOR_SPEED_LIMIT_RPM:g}] r/min, "
-                             f"got {self.motor_speed_rpm!r}")
-        if not self.load_target >= 0.0:
-            raise ValueError("load_target must be >= 0 N·m")
-        for name in ("accel_time", "settle_time", "rest_time"):
-            if not getattr(self, name) >= 0.0:
-                raise ValueError(f"{name} must be >= 0 s")
+        _check_bounds(self)
+        limits = limit_set_named(self.limit_set)
+        if self.load_target > limits.max_load:
+            raise ValueError(f"load_target {self.load_target:g} N·m is beyond the "
+                             f"{limits.name!r} limit set's {limits.max_load:g} N·m "
+                             f"({limits.purpose})")
 
     # --- given by each scheme ---------------------------------------------------------------
     @abc.abstractmethod
@@ -169,20 +283,16 @@ class _LoadingScheme(abc.ABC):
 class Scheme1(_LoadingScheme):
     """Scheme 1 — torque vs speed and load: at constant motor speed, load the output slowly to
     the rated torque and unload slowly to 0 (paper II-B, rig.md)."""
-    ramp_rate: float = 2.4e3
-    """Load and unload rate [N·m/s]; 2.4 kN·m/s keeps a 3000 r/min run within ±180°
-    (0.0286 rad/s × ~102 s ≈ 167°)."""
-    hold_top: float = 0.0
-    """Hold at the top load [s] (the paper goes straight from loading to unloading)."""
+    ramp_rate: float = param(2.4e3, "N·m/s", "load and unload rate", "ramp_rate", gt=0.0,
+                             le=1e5)
+    """2.4 kN·m/s keeps a 3000 r/min run within ±180° (0.0286 rad/s × ~102 s ≈ 167°)."""
+    hold_top: float = _durations(0.0, "hold at the top load", "hold_top")
+    """The paper goes straight from loading to unloading."""
 
     scheme: ClassVar[int] = 1
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not self.ramp_rate > 0:
-            raise ValueError("ramp_rate must be > 0 N·m/s")
-        if not self.hold_top >= 0:
-            raise ValueError("hold_top must be >= 0 s")
         if self.travel() > JOINT_LIMIT:
             raise ValueError(f"scheme 1 would turn the joint {math.degrees(self.travel()):.0f}°, "
                              "beyond ±180°: raise ramp_rate or lower the speed")
@@ -202,24 +312,20 @@ class Scheme1(_LoadingScheme):
 class Scheme2(_LoadingScheme):
     """Scheme 2 — current and torque following curves: load forward in `step` increments,
     pausing `pause` at each, up to the rated torque; then unload (paper II-B, rig.md)."""
-    step: float = 10e3
-    """Load increment [N·m] (10 kN·m)."""
-    pause: float = 2.0
-    """Pause at each step [s] (2 s)."""
-    ramp_rate: float = 3e3
-    """Rate between steps [N·m/s] (design: 3.3 s per step; the dynamometer's 0.2 s lag then
-    trails by 0.6 kN·m, leaving room inside Table 11's ±2 kN·m for its slow error)."""
-    unload_rate: float = 3.5e3
-    """Unload rate after the last pause [N·m/s] (design: a 3000 r/min run then turns the joint
-    ~164°, inside ±180°; the lag trails by 0.7 kN·m)."""
+    step: float = param(10e3, "N·m", "load step", "step", gt=0.0, le=RATED_TORQUE)
+    pause: float = _durations(2.0, "pause at each step", "pause")
+    ramp_rate: float = param(3e3, "N·m/s", "rate between steps", "ramp_rate", gt=0.0, le=1e5)
+    """Design: 3.3 s per step; the dynamometer's 0.2 s lag then trails by 0.6 kN·m, leaving
+    room inside Table 11's ±2 kN·m for its slow error."""
+    unload_rate: float = param(3.5e3, "N·m/s", "unload rate after the last pause",
+                               "unload_rate", gt=0.0, le=1e5)
+    """Design: a 3000 r/min run then turns the joint ~164°, inside ±180°; the lag trails by
+    0.7 kN·m."""
 
     scheme: ClassVar[int] = 2
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not (self.step > 0 and self.pause >= 0 and self.ramp_rate > 0
-                and self.unload_rate > 0):
-            raise ValueError("step, ramp_rate and unload_rate must be > 0, pause >= 0")
         if self.travel() > JOINT_LIMIT:
             raise ValueError(f"scheme 2 would turn the joint {math.degrees(self.travel()):.0f}°, "
                              "beyond ±180°: raise the rates or lower the speed")
@@ -252,46 +358,42 @@ class Scheme3:
     """Scheme 3 — Fourier excitation (Eq. 12, order 5) within ±180° and the speed limit, the
     coefficients optimised for the condition number of Eq. 4's observation matrix (core.excitation).
     No dynamometer load and no hydraulics: the run identifies the rigid-body parameters."""
-    order: int = 5
-    """Fourier order (5 in the paper)."""
-    base_freq_hz: float = 0.05
-    """Base frequency ω_f/2π [Hz] (design: 20 s period; the 5th harmonic, 0.25 Hz, stays far
-    below the drives' 25 rad/s speed loop and the ~8 Hz drive-train mode, and the accelerations
-    reach a_max so the inertia is identifiable)."""
-    n_periods: int = 15
-    """Periods run [-] (15 × 20 s = 300 s of excitation)."""
-    q_max: float = JOINT_LIMIT
-    """Position limit [rad] (±180°)."""
-    motor_speed_limit_rpm: float = MOTOR_SPEED_LIMIT_RPM
-    """Speed limit [r/min at the motor]; the output limit is this / N."""
-    a_max: float = 0.05
-    """Output acceleration limit [rad/s²] (design: the reflected inertia ~7.9e4 kg·m² then
-    needs ≤ 4 kN·m, a few % of the rated torque)."""
-    direction: int = 1
+    order: int = param(5, "", "Fourier order", "order", ge=2, le=10)
+    """5 in the paper."""
+    base_freq_hz: float = param(0.05, "Hz", "base frequency ω_f/2π", "base_freq", gt=0.0, le=1.0)
+    """Design: 20 s period; the 5th harmonic, 0.25 Hz, stays far below the drives' 25 rad/s
+    speed loop and the ~8 Hz drive-train mode, and the accelerations reach a_max so the inertia
+    is identifiable."""
+    n_periods: int = param(15, "", "periods of excitation", "periods", ge=1, le=100)
+    """15 × 20 s = 300 s of excitation."""
+    q_max: float = param(JOINT_LIMIT, "rad", "position limit", None, gt=0.0, le=JOINT_LIMIT)
+    """±180°."""
+    motor_speed_limit_rpm: float = param(MOTOR_SPEED_LIMIT_RPM, "r/min", "motor speed limit",
+                                         None, gt=0.0, le=MOTOR_SPEED_LIMIT_RPM)
+    """The output limit is this / N."""
+    a_max: float = param(0.05, "rad/s²", "output acceleration limit", "a_max", gt=0.0, le=1.0)
+    """Design: the reflected inertia ~7.9e4 kg·m² then needs ≤ 4 kN·m, a few % of the rated
+    torque."""
+    direction: int = param(1, "", "sense of motion", "direction", choices=(1, -1))
     """+1 runs the optimised trajectory, −1 its mirror image."""
-    rest_time: float = 2.0
-    """Idle at rest before and after the excitation [s]."""
-    position_gain: float = 5.0
-    """Proportional position-loop gain on the motor-side angle [1/s] (with speed feed-forward)."""
-    sample_rate_hz: float = 1000.0
-    """Sensor sampling [Hz] (design: the drives' 1 kHz rate; 300 000 samples put the standard
-    error of I_xx near 0.4 % with the default sensor noise, and a 20 Hz zero-phase derivative of
-    qd then captures the drive-train transients after velocity reversals)."""
-    opt_seed: int = 0
-    """Seed of the coefficient optimisation's random starts."""
+    rest_time: float = _durations(2.0, "idle at rest before and after the excitation",
+                                  "rest_time")
+    position_gain: float = param(5.0, "1/s", "position-loop gain", "position_gain", gt=0.0,
+                                 le=50.0)
+    """Proportional gain on the motor-side angle (with speed feed-forward)."""
+    sample_rate_hz: float = param(1000.0, "Hz", "sample rate", "sample_rate", ge=10.0, le=1000.0)
+    """Design: the drives' 1 kHz rate; 300 000 samples put the standard error of I_xx near
+    0.4 % with the default sensor noise, and a 20 Hz zero-phase derivative of qd then captures
+    the drive-train transients after velocity reversals."""
+    opt_seed: int = param(0, "", "seed of the excitation optimisation", "opt_seed", ge=0,
+                          le=2**31 - 1)
     coefficients: tuple | None = None
     """Fixed (a, b, q0) instead of optimising: a, b [rad/s] of length `order`, q0 [rad]."""
 
     scheme: ClassVar[int] = 3
 
     def __post_init__(self) -> None:
-        _check_common(self.direction, self.sample_rate_hz)
-        if not (self.order >= 2 and self.n_periods >= 1 and self.base_freq_hz > 0):
-            raise ValueError("order must be >= 2, n_periods >= 1, base_freq_hz > 0")
-        if not (0 < self.q_max <= JOINT_LIMIT):
-            raise ValueError("q_max must be in (0, π] rad")
-        if not (0 < self.motor_speed_limit_rpm <= MOTOR_SPEED_LIMIT_RPM and self.a_max > 0):
-            raise ValueError("speed limit must be in (0, 3000] r/min and a_max > 0")
+        _check_bounds(self)
         if self.coefficients is not None:
             a, b, q0 = self.coefficients
             object.__setattr__(self, "coefficients",
@@ -385,27 +487,116 @@ def make_scheme(number: int, **params: Any) -> "Scheme1 | Scheme2 | Scheme3":
     return SCHEMES[number](**params)
 
 
-SCHEME_ARGS: dict[str, tuple[str, type, str]] = {
-    # option dest: (scheme field, type, help)
-    "speed": ("motor_speed_rpm", float, "motor speed [r/min] (schemes 1, 2; 300 or 3000)"),
-    "direction": ("direction", int, "sense of motion, 1 or -1"),
-    "load": ("load_target", float, "load at the top [N·m] (schemes 1, 2; default 120e3)"),
-    "ramp_rate": ("ramp_rate", float, "load ramp rate [N·m/s] (schemes 1, 2)"),
-    "unload_rate": ("unload_rate", float, "unload rate [N·m/s] (scheme 2)"),
-    "hold_top": ("hold_top", float, "hold at the top load [s] (scheme 1)"),
-    "step": ("step", float, "load step [N·m] (scheme 2; default 10e3)"),
-    "pause": ("pause", float, "pause at each step [s] (scheme 2; default 2)"),
-    "accel_time": ("accel_time", float, "speed ramp time [s] (schemes 1, 2)"),
-    "settle_time": ("settle_time", float, "idle at speed before loading [s] (schemes 1, 2)"),
-    "rest_time": ("rest_time", float, "idle at rest [s]"),
-    "shear": ("shear_target", float, "hydraulic shear while loading [N] (schemes 1, 2)"),
-    "sample_rate": ("sample_rate_hz", float, "sample rate [Hz] (>= 10)"),
-    "order": ("order", int, "Fourier order (scheme 3; default 5)"),
-    "base_freq": ("base_freq_hz", float, "base frequency [Hz] (scheme 3)"),
-    "periods": ("n_periods", int, "periods of excitation (scheme 3)"),
-    "a_max": ("a_max", float, "output acceleration limit [rad/s²] (scheme 3)"),
-    "position_gain": ("position_gain", float, "position-loop gain [1/s] (scheme 3)"),
-    "opt_seed": ("opt_seed", int, "seed of the excitation optimisation (scheme 3)"),
-}
-"""The schemes' parameters as the command line and the service's acquisition name them:
-option dest -> (the scheme dataclass field, its type, help with unit)."""
+def scheme_params(number: int) -> tuple[SchemeParam, ...]:
+    """The parameters of scheme `number` settable from the service and the command line, in
+    the dataclass's order (those with an option in their Bounds)."""
+    if number not in SCHEMES:
+        raise ValueError(f"scheme must be 1, 2 or 3, got {number!r}")
+    out = []
+    for f in fields(SCHEMES[number]):
+        b = f.metadata.get("bounds")
+        if b is not None and b.option is not None:
+            out.append(SchemeParam(f.name, _field_type(f), f.default, b))
+    return tuple(out)
+
+
+def scheme_options() -> dict[str, tuple[str, type, dict[int, SchemeParam]]]:
+    """Every `rig run` option of the schemes: option -> (dataclass field, type, {scheme number:
+    its parameter}); an option names the same field in every scheme that has it."""
+    out: dict[str, tuple[str, type, dict[int, SchemeParam]]] = {}
+    for number in SCHEMES:
+        for p in scheme_params(number):
+            name, typ, per = out.setdefault(p.bounds.option, (p.name, p.type, {}))
+            if (name, typ) != (p.name, p.type):
+                raise AssertionError(f"option {p.bounds.option!r} names {name} and {p.name}")
+            per[number] = p
+    return out
+
+
+RUN_SOURCES = ("emulator", "rig")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """What one `rig run` runs and records, as one JSON document: `rig run --spec FILE` reads
+    it (the command line's flags build the same thing), and the service's acquisition process
+    hands it over that way. It holds no secret: the database is named by RIG_DB_URL."""
+    scheme: int
+    """1, 2 or 3."""
+    params: dict[str, Any] = field(default_factory=dict)
+    """{dataclass field: value} of the scheme's settable parameters (scheme_params); the others
+    at the paper's defaults."""
+    operator: str | None = None
+    """Who runs it (stored with the run)."""
+    notes: str = ""
+    effects: dict[str, dict[str, float]] | None = None
+    """Effects injected in the emulator {name: {param: value}}, recorded with the run."""
+    source: str | None = None
+    """'emulator' or 'rig' (None: decided from the DAQ settings' PLC address)."""
+    rig_name: str | None = None
+    reset_watchdog: bool = False
+    """Reset a PLC heartbeat-watchdog fault latched by the previous session."""
+
+    def __post_init__(self) -> None:
+        if self.scheme not in SCHEMES or isinstance(self.scheme, bool):
+            raise ValueError(f"scheme must be 1, 2 or 3, got {self.scheme!r}")
+        if not isinstance(self.params, dict):
+            raise ValueError("params must be an object {parameter: value}")
+        known = {p.name for p in scheme_params(self.scheme)}
+        unknown = sorted(set(self.params) - known)
+        if unknown:
+            raise ValueError(f"scheme {self.scheme} has no parameter {', '.join(unknown)} "
+                             f"(it has {', '.join(sorted(known))})")
+        for name in ("operator", "rig_name"):
+            if getattr(self, name) is not None and not isinstance(getattr(self, name), str):
+                raise ValueError(f"{name} must be a string")
+        if not isinstance(self.notes, str):
+            raise ValueError("notes must be a string")
+        if self.source not in (None, *RUN_SOURCES):
+            raise ValueError(f"source must be one of {RUN_SOURCES}, got {self.source!r}")
+        if not isinstance(self.reset_watchdog, bool):
+            raise ValueError("reset_watchdog must be true or false")
+        if self.effects is not None:
+            if not (isinstance(self.effects, dict) and all(
+                    isinstance(v, dict) for v in self.effects.values())):
+                raise ValueError("effects must be an object {name: {parameter: value}}")
+            resolve_effects(self.effects)      # the vocabulary's names and bounds
+
+    def make_scheme(self) -> "Scheme1 | Scheme2 | Scheme3":
+        """The scheme's plan with these parameters (ValueError with the scheme's reason)."""
+        return make_scheme(self.scheme, **self.params)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def to_json(self) -> str:
+        """One line of JSON (the form `rig run --spec -` reads with --control-stdin)."""
+        return json.dumps(self.to_dict(), separators=(",", ":"), allow_nan=False)
+
+    @classmethod
+    def from_dict(cls, doc: Any) -> "RunSpec":
+        """Read a spec document; ValueError naming what is wrong (unknown keys included)."""
+        if not isinstance(doc, dict):
+            raise ValueError("a run spec is a JSON object")
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(doc) - names)
+        if unknown:
+            raise ValueError(f"unknown run spec key(s) {', '.join(unknown)} "
+                             f"(known: {', '.join(sorted(names))})")
+        missing = [f.name for f in fields(cls) if f.name not in doc
+                   and f.default is MISSING and f.default_factory is MISSING]
+        if missing:
+            raise ValueError(f"the run spec needs {', '.join(missing)}")
+        return cls(**doc)
+
+    @classmethod
+    def from_json(cls, text: str) -> "RunSpec":
+        try:
+            doc = json.loads(text, parse_constant=_refuse_constant)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"the run spec is not JSON: {exc}") from None
+        return cls.from_dict(doc)
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"the run spec holds {name}, which is no number")

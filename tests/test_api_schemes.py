@@ -2,8 +2,9 @@
 emulator through the API (the service's acquisition process starts `rig emulate` and `rig run`)
 → server-sent events with progress and the live channels → the run in /runs with `success` →
 an identification job on it succeeds → its report renders; stop mid-run → make-safe, `abort`,
-the stand-in stopped; e-stop mid-run → `abort` with the e-stop reason; 409 on a second start;
-the service shutting down stops (makes safe) its acquisition."""
+the stand-in stopped; e-stop mid-run (by a viewer) → `abort` with the e-stop reason; 409 on a
+second start; the rig needs the rig-operator role; the service shutting down stops (makes safe)
+its acquisition."""
 
 from __future__ import annotations
 
@@ -44,7 +45,8 @@ def api(tmp_path_factory):
         for k, v in SLACK_ENV.items():
             mp.setenv(k, v)
         store = Store(url)
-        tokens = {r: create_token(store, f"test-{r}", [r]) for r in ("viewer", "operator", "admin")}
+        tokens = {r: create_token(store, f"test-{r}", [r])
+                  for r in ("viewer", "operator", "rig-operator", "admin")}
         app = create_app(Settings(db_url=url, workers=0, max_body_bytes=64 * 1024))
         with TestClient(app) as client:
             yield Api(client=client, url=url, store=store, runs={}, tokens=tokens)
@@ -117,11 +119,23 @@ def test_roles_and_validation(api):
         assert getattr(api.client, method)(path).status_code == 401, path
         bad = getattr(api.client, method)(path, headers={"Authorization": "Bearer nope"})
         assert bad.status_code == 401, path
-    for path in ("/schemes/1/runs", "/schemes/2/runs", f"/acquisitions/{some}/stop",
-                 f"/acquisitions/{some}/estop"):
+    for path in ("/schemes/1/runs", "/schemes/2/runs", f"/acquisitions/{some}/stop"):
         assert api.client.post(path, json=body(), headers=api.h("viewer")).status_code == 403
-    assert api.client.post("/schemes/1/runs", json=body(target="rig"),
-                           headers=api.h("viewer")).status_code == 403
+    # the e-stop is every signed-in role's: a viewer's gets through (404: no such acquisition)
+    assert api.client.post(f"/acquisitions/{some}/estop", json={"reason": "r"},
+                           headers=api.h("viewer")).status_code == 404
+    # the real rig needs the rig-operator role: viewer and operator are refused before anything
+    # starts; a rig-operator's request is checked (this one's travel is refused: 422)
+    for role in ("viewer", "operator"):
+        r = api.client.post("/schemes/1/runs", json=body(target="rig"), headers=api.h(role))
+        assert r.status_code == 403, (role, r.text)
+    assert "rig-operator" in r.json()["detail"]
+    r = api.client.post("/schemes/1/runs", headers=api.h("rig-operator"),
+                        json=body({**SHORT, "ramp_rate": 100.0}, target="rig"))
+    assert r.status_code == 422 and "180" in r.text, r.text
+    r = api.client.post("/tokens", json={"name": "rig-hand", "role": "rig-operator"},
+                        headers=api.h("admin"))
+    assert r.status_code == 201 and r.json()["role"] == "rig-operator", r.text
     for path in (f"/acquisitions/{some}", f"/acquisitions/{some}/events"):
         assert api.client.get(path, headers=api.h("viewer")).status_code == 404
     assert api.client.get("/acquisitions/xyz", headers=api.h("viewer")).status_code == 422
@@ -222,18 +236,20 @@ def test_estop_mid_run_on_the_rig_aborts_with_the_estop_reason(api, monkeypatch)
                      ("RIG_PLC_POLL_HZ", 200), ("RIG_TPDO_RATE_HZ", 100)):
             monkeypatch.setenv(k, str(v))
         r = api.client.post("/schemes/1/runs", json=body(LONG, target="rig"),
-                            headers=api.h("operator"))
+                            headers=api.h("rig-operator"))
         assert r.status_code == 202, r.text
         loc = r.headers["location"]
         a = wait(api, loc, lambda a: a["state"] == "running" and (a["progress"] or {}).get(
             "n_samples", 0) >= 10)
         assert a["target"] == "rig" and a["standin"] is None
         r = api.client.post(loc + "/estop", json={"reason": "smoke at the gearbox"},
-                            headers=api.h("operator"))
+                            headers=api.h("viewer"))            # anyone signed in may e-stop
         assert r.status_code == 200
         a = wait(api, loc, lambda a: a["state"] == "ended")
         assert a["run_status"] == "abort", a
         assert a["reason"].startswith("interlock estop: operator e-stop: smoke at the gearbox"), a
+        assert a["requests"][0] == {"command": "estop", "by": "test-viewer",
+                                    "at": a["requests"][0]["at"]}
         info = get(api, f"/runs/{a['run_id']}")
         assert info["source"] == "rig" and info["meta"]["operator"] == "alice"
         assert any(i["kind"] == "interlock" and "smoke at the gearbox" in i["reason"]

@@ -133,3 +133,111 @@ def test_scheme3_fixed_coefficients_skip_optimisation():
     assert plan.excitation() is None
     assert isinstance(plan.trajectory(), FourierTrajectory)
     assert plan.trajectory().a == tr.a
+
+
+# --- the parameters, defined once: the schemes check them; the API and the CLI derive ------------
+
+def test_every_settable_parameter_is_bounded_by_the_scheme_itself():
+    from core.schemes import SCHEMES, scheme_params
+
+    for number, cls in SCHEMES.items():
+        for p in scheme_params(number):
+            b = p.bounds
+            kw = {"motor_speed_rpm": 300.0} if number != 3 else {}   # travel inside ±180°
+            bad = [float("nan"), "3", True]
+            if b.choices is not None:
+                bad.append(0)
+            if b.le is not None:
+                bad.append(b.le * 1.5 + 1)
+            if b.ge is not None:
+                bad.append(b.ge - 1)
+            if b.gt is not None:
+                bad.append(b.gt)
+            if p.type is int:
+                bad.append(float(p.default))
+            for v in bad:
+                if p.name in kw and v == kw[p.name]:
+                    continue
+                with pytest.raises(ValueError, match=p.name):
+                    cls(**{**kw, p.name: v})
+            cls(**{**kw, p.name: p.default})
+
+
+def test_the_api_schema_and_the_cli_flags_derive_from_the_schemes():
+    import argparse
+
+    from api.routers.schemes import PARAMS
+    from commands import cmd_run
+    from core.schemes import scheme_options, scheme_params
+
+    parser = argparse.ArgumentParser()
+    cmd_run.add_arguments(parser)
+    helps = {a.dest: a.help for a in parser._actions}
+    for number in (1, 2, 3):
+        params = scheme_params(number)
+        schema = PARAMS[number].model_json_schema()["properties"]
+        assert list(schema) == [p.name for p in params]
+        for p in params:
+            b, s = p.bounds, schema[p.name]
+            assert s["default"] == p.default
+            assert s.get("minimum") == b.ge and s.get("exclusiveMinimum") == b.gt
+            assert s.get("maximum") == b.le and s.get("enum") == (list(b.choices) if b.choices
+                                                                 else None)
+            assert b.doc in s["description"] and b.unit in s["description"]
+            assert b.doc in helps[b.option] and b.unit in helps[b.option]
+            value = p.default if b.choices is None else b.choices[-1]
+            args = parser.parse_args([f"scheme{number}", f"--{b.option.replace('_', '-')}",
+                                      str(value)])
+            assert cmd_run.scheme_params(args, number) == {p.name: value}
+    assert set(helps) >= set(scheme_options())
+
+
+def test_run_spec_reads_back_and_refuses_what_is_not_a_run():
+    from core.schemes import RunSpec
+
+    spec = RunSpec(2, {"step": 5e3, "direction": -1, "motor_speed_rpm": 300.0},
+                   operator="ann", notes="n", effects={"stribeck": {"f_s": 900.0}},
+                   source="emulator")
+    assert RunSpec.from_json(spec.to_json()) == spec
+    assert spec.make_scheme().step == 5e3
+    for text, why in (('{"scheme": 4}', "scheme must be"),
+                      ('{"params": {}}', "needs scheme"),
+                      ('{"scheme": 1, "db": "x"}', "unknown run spec key"),
+                      ('{"scheme": 1, "params": {"step": 1}}', "no parameter step"),
+                      ('{"scheme": 1, "params": {"load_target": NaN}}', "NaN"),
+                      ('{"scheme": 1, "source": "moon"}', "source"),
+                      ('{"scheme": 1, "effects": {"nope": {}}}', "unknown effect"),
+                      ("[1]", "JSON object"), ("{", "not JSON")):
+        with pytest.raises(ValueError, match=why):
+            RunSpec.from_json(text)
+
+
+def test_rig_run_spec_is_the_same_run_as_the_flags(tmp_path, monkeypatch):
+    import argparse
+    import io
+    import json
+    import sys
+
+    from commands import cmd_run
+    from core.schemes import RunSpec
+
+    parser = argparse.ArgumentParser()
+    cmd_run.add_arguments(parser)
+    flags = cmd_run.run_spec(parser.parse_args(
+        ["scheme2", "--speed", "300", "--direction", "-1", "--pause", "1", "--operator", "ann",
+         "--effect", "stribeck:f_s=900", "--source", "emulator"]))
+    assert flags == RunSpec(2, {"motor_speed_rpm": 300.0, "direction": -1, "pause": 1.0},
+                            operator="ann", effects={"stribeck": {"f_s": 900.0}},
+                            source="emulator")
+    f = tmp_path / "run.json"
+    f.write_text(json.dumps(flags.to_dict(), indent=2))
+    assert cmd_run.run_spec(parser.parse_args(["--spec", str(f)])) == flags
+    for mixed in (["scheme2", "--spec", str(f)], ["--spec", str(f), "--speed", "300"],
+                  ["--spec", str(f), "--operator", "bob"], []):
+        with pytest.raises(ValueError, match="--spec|give the scheme"):
+            cmd_run.run_spec(parser.parse_args(mixed))
+    # `--spec -` with --control-stdin: the first line is the run, the commands follow
+    stdin = io.StringIO(flags.to_json() + "\nstop\n")
+    monkeypatch.setattr(sys, "stdin", stdin)
+    assert cmd_run.run_spec(parser.parse_args(["--spec", "-", "--control-stdin"])) == flags
+    assert stdin.read() == "stop\n"

@@ -1,7 +1,9 @@
-"""/schemes and /acquisitions: start scheme 1, 2 or 3 on the emulator or the rig (operator role),
-follow it (state, server-sent events with progress and the live key channels), stop it
-(make-safe, the run ends `abort`) or e-stop it. The acquisition runs in processes of its own
-(api/acquisition.py); the web process only starts, follows and commands them."""
+"""/schemes and /acquisitions: start scheme 1, 2 or 3 on the emulator (operator role) or the rig
+(rig-operator role), follow it (state, server-sent events with progress and the live key
+channels), stop it (operator: make-safe, the run ends `abort`) or e-stop it (any signed-in
+role: whoever sees a danger must be able to stop the machine). The acquisition runs in
+processes of its own (api/acquisition_process.py); the web process only starts, follows and
+commands them (api/acquisition.py)."""
 
 from __future__ import annotations
 
@@ -14,11 +16,11 @@ from fastapi import APIRouter, Body, Depends, FastAPI, HTTPException, Path, Requ
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, create_model
 
-from api.acquisition import (MAX_SAMPLE_RATE_TIMES_SCALE, Acquisition, AcquisitionManager,
-                             Busy)
-from api.deps import ERRORS, Operator, Viewer
+from api.acquisition import Acquisition, AcquisitionManager, Busy
+from api.acquisition_process import MAX_SAMPLE_RATE_TIMES_SCALE, AcquisitionSpec
+from api.auth import RIG_ROLE
+from api.deps import ERRORS, Caller, Operator, Viewer, check_role
 from core.effects import EFFECT_NAMES
-from core.params import RATED_TORQUE
 
 
 @asynccontextmanager
@@ -41,45 +43,29 @@ def _utf8(v: str) -> str:
 
 Text = Annotated[str, Field(max_length=200, pattern=r"^[^\x00-\x1f\x7f]*$"),
                  AfterValidator(_utf8)]
-"""One line of printable text (it ends up on a command line and in the run's metadata)."""
-T = Annotated[float, Field(ge=0.0, le=600.0)]
-"""A duration [s]."""
+"""One line of printable text (it ends up in the run's metadata and in logs)."""
 
-_LOADING = dict(
-    motor_speed_rpm=(float, Field(3000.0, gt=0.0, le=3000.0, description="motor speed [r/min]")),
-    direction=(Literal[1, -1], Field(1, description="sense of motion")),
-    load_target=(float, Field(RATED_TORQUE, ge=0.0, le=RATED_TORQUE,
-                              description="load at the top [N·m]")),
-    accel_time=(T, Field(1.0, description="speed ramp time [s]")),
-    settle_time=(T, Field(1.0, description="idle at speed before loading [s]")),
-    rest_time=(T, Field(1.0, description="idle at rest after the motion [s]")),
-    shear_target=(float, Field(90e3, ge=0.0, le=90e3, description="hydraulic shear [N]")),
-    sample_rate_hz=(float, Field(10.0, ge=10.0, le=1000.0, description="sample rate [Hz]")),
-)
-PARAMS: dict[int, type[BaseModel]] = {
-    1: create_model("Scheme1Params", __config__=ConfigDict(extra="forbid"),
-                    __doc__="Scheme 1: load to the top and unload at constant speed.", **_LOADING,
-                    ramp_rate=(float, Field(2.4e3, gt=0.0, le=1e5, description="[N·m/s]")),
-                    hold_top=(T, Field(0.0, description="hold at the top [s]"))),
-    2: create_model("Scheme2Params", __config__=ConfigDict(extra="forbid"),
-                    __doc__="Scheme 2: load in steps with pauses, then unload.", **_LOADING,
-                    step=(float, Field(10e3, gt=0.0, le=RATED_TORQUE, description="[N·m]")),
-                    pause=(T, Field(2.0, description="pause at each step [s]")),
-                    ramp_rate=(float, Field(3e3, gt=0.0, le=1e5, description="[N·m/s]")),
-                    unload_rate=(float, Field(3.5e3, gt=0.0, le=1e5, description="[N·m/s]"))),
-    3: create_model("Scheme3Params", __config__=ConfigDict(extra="forbid"),
-                    __doc__="Scheme 3: optimised Fourier excitation in position control.",
-                    order=(int, Field(5, ge=2, le=10)),
-                    base_freq_hz=(float, Field(0.05, gt=0.0, le=1.0, description="[Hz]")),
-                    n_periods=(int, Field(15, ge=1, le=100)),
-                    a_max=(float, Field(0.05, gt=0.0, le=1.0, description="[rad/s²]")),
-                    position_gain=(float, Field(5.0, gt=0.0, le=50.0, description="[1/s]")),
-                    opt_seed=(int, Field(0, ge=0, le=2**31 - 1)),
-                    direction=(Literal[1, -1], Field(1)),
-                    rest_time=(T, Field(2.0, description="[s]")),
-                    sample_rate_hz=(float, Field(1000.0, ge=10.0, le=1000.0, description="[Hz]"))),
-}
-"""The parameters each scheme accepts (core.schemes' fields, bounded), paper defaults."""
+
+def _params_model(number: int) -> type[BaseModel]:
+    """The request model of scheme `number`'s parameters, derived from core.schemes (fields,
+    defaults, units, bounds): nothing typed here."""
+    from core.schemes import SCHEMES, scheme_params
+
+    spec: dict[str, Any] = {}
+    for p in scheme_params(number):
+        b = p.bounds
+        typ = Literal[b.choices] if b.choices is not None else p.type
+        unit = f" [{b.unit}]" if b.unit else ""
+        spec[p.name] = (typ, Field(p.default, ge=b.ge, gt=b.gt, le=b.le,
+                                   description=f"{b.doc}{unit}"))
+    doc = (SCHEMES[number].__doc__ or "").strip().split("\n\n")[0]
+    return create_model(f"Scheme{number}Params", __config__=ConfigDict(extra="forbid"),
+                        __doc__=doc, **spec)
+
+
+PARAMS: dict[int, type[BaseModel]] = {n: _params_model(n) for n in (1, 2, 3)}
+"""The parameters each scheme accepts (core.schemes' settable fields, bounded), paper
+defaults."""
 
 
 class EmulatorOptions(BaseModel):
@@ -128,26 +114,37 @@ Acq = Annotated[Acquisition, Depends(_acq)]
 """The acquisition of the path's id (404 if this service has none)."""
 
 
-def _start(number: int, body: BaseModel, request: Request, response: Response
+def _start(number: int, caller: Caller, body: BaseModel, request: Request, response: Response
            ) -> dict[str, Any]:
-    from core.schemes import make_scheme
+    from core.schemes import RunSpec
+
+    if body.target == "rig":
+        check_role(caller, RIG_ROLE, "starting a scheme on the rig")
 
     params = body.params.model_dump()
+    emu = body.emulator if body.target == "emulator" else None
+    if emu is not None:
+        from core.effects import check_effects
+        try:                               # known, finite, in range (core/effects.py)
+            check_effects(emu.effects)
+        except ValueError as exc:
+            raise HTTPException(422, f"emulator effects: {exc}") from None
+    run = RunSpec(scheme=number, params=params, operator=body.operator, notes=body.notes,
+                  effects=(emu.effects or None) if emu else None, source=body.target,
+                  reset_watchdog=body.reset_watchdog)
     try:
-        make_scheme(number, **params)      # the scheme's own checks (e.g. the ±180° travel)
+        run.make_scheme()                  # the scheme's own checks (e.g. the ±180° travel)
     except (ValueError, TypeError) as exc:
         raise HTTPException(422, f"scheme {number}: {exc}") from None
-    spec: dict[str, Any] = {"scheme": number, "target": body.target, "params": params,
-                            "operator": body.operator, "notes": body.notes,
-                            "reset_watchdog": body.reset_watchdog}
-    if body.target == "emulator":
-        emu = body.emulator
+    if emu is not None:
         if params["sample_rate_hz"] * emu.time_scale > MAX_SAMPLE_RATE_TIMES_SCALE:
             raise HTTPException(422, f"sample rate × time scale must be ≤ "
                                      f"{MAX_SAMPLE_RATE_TIMES_SCALE:g} Hz on the emulator "
                                      "(its PLC poll rate): lower one of them")
-        spec.update(time_scale=emu.time_scale, seed=emu.seed, watchdog_s=emu.watchdog_s,
-                    effects=emu.effects)
+        spec = AcquisitionSpec(run=run, target="emulator", time_scale=emu.time_scale,
+                               seed=emu.seed, watchdog_s=emu.watchdog_s)
+    else:
+        spec = AcquisitionSpec(run=run, target=body.target)
     try:
         acq = _manager(request).start(spec)
     except Busy as exc:
@@ -160,13 +157,13 @@ def _add_start_route(number: int) -> None:
     model = _request_model(number)
 
     def start(caller: Operator, body, request: Request, response: Response) -> dict[str, Any]:
-        return _start(number, body, request, response)
+        return _start(number, caller, body, request, response)
     start.__annotations__["body"] = Annotated[model, Body()]   # the model of this scheme
     start.__name__ = f"start_scheme{number}"
     router.add_api_route(
         f"/schemes/{number}/runs", start, methods=["POST"], status_code=202,
-        summary=f"Start scheme {number} on the emulator or the rig; 202 with Location to the "
-                "acquisition",
+        summary=f"Start scheme {number} on the emulator (operator) or the rig (rig-operator); "
+                "202 with Location to the acquisition",
         responses={409: {"description": "the target already has an acquisition running"}})
 
 
@@ -233,9 +230,9 @@ class EStop(BaseModel):
 
 
 @router.post("/acquisitions/{acq_id}/estop",
-             summary="E-stop now: trip, make safe, latch the PLC's e-stop; the run ends "
-                     "`abort` with the e-stop as its reason")
-def estop_acquisition(caller: Operator, acq: Acq, request: Request,
+             summary="E-stop now (any signed-in role): trip, make safe, latch the PLC's "
+                     "e-stop; the run ends `abort` with the e-stop as its reason")
+def estop_acquisition(caller: Viewer, acq: Acq, request: Request,
                       body: EStop | None = None) -> dict[str, Any]:
     _manager(request).estop(acq, (body or EStop()).reason, caller.name)
     return acq.snapshot()
