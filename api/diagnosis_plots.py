@@ -1,5 +1,5 @@
-"""Figures of a sim-to-real gap diagnosis for its report section (matplotlib Agg, SVG bytes),
-drawn from the stored diagnosis document (estimator.diagnosis report with its `series`):
+"""Figures of a sim-to-real gap diagnosis for its report section (SVG bytes, drawn without
+pyplot, see api/run_plots.py), from the stored diagnosis document (estimator.diagnosis report with its `series`):
 
 - `residual_maps`      mean residual ± SE in every region of every family (speed band, direction
                        of power flow, load band, reversals, scheme/phase, angle, temperature,
@@ -16,9 +16,10 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+import matplotlib
 import numpy as np
 
-from api.run_plots import _svg, plt
+from api.run_plots import _svg, subplots
 
 FAMILY_ORDER = ("speed", "power", "load", "reversal", "scheme", "angle", "temperature", "time")
 BEFORE, AFTER, MEASURED = "tab:red", "tab:blue", "0.25"
@@ -53,7 +54,7 @@ def residual_maps(doc: dict[str, Any]) -> bytes | None:
         return None
     ncol = 2
     nrow = (len(fams) + 1) // ncol
-    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.1 * nrow + 0.6), squeeze=False)
+    fig, axes = subplots(nrow, ncol, figsize=(11, 2.1 * nrow + 0.6), squeeze=False)
     for ax, fam in zip(axes.flat, fams):
         rows = [r for r in regions if r["family"] == fam]
         rows.sort(key=lambda r: r["where"])
@@ -100,7 +101,7 @@ def residual_vs_angle(doc: dict[str, Any]) -> bytes | None:
         x = np.degrees(q)
         xlabel = "output angle q [°]"
     e0 = s["measured"] - s["baseline"]
-    fig, ax = plt.subplots(figsize=(9, 3.8))
+    fig, ax = subplots(figsize=(9, 3.8))
     ax.plot(x, e0, ".", ms=2, color=BEFORE, alpha=0.25, rasterized=True)
     ax.plot(*_binned(x, e0, 36), "-", color=BEFORE, lw=2, label="nominal model (binned mean)")
     if _has_effects(doc):
@@ -123,11 +124,11 @@ def residual_vs_time(doc: dict[str, Any], run_ids: Sequence[int] | None = None) 
     if s is None:
         return None
     after = _has_effects(doc)
-    fig, axes = plt.subplots(2 if after else 1, 1, figsize=(9, 5.6 if after else 3.2),
-                             sharex=True, sharey=True, squeeze=False)
+    fig, axes = subplots(2 if after else 1, 1, figsize=(9, 5.6 if after else 3.2),
+                         sharex=True, sharey=True, squeeze=False)
     runs = s["run"].astype(int)
     n_train = int(s.get("n_train_runs", 0))
-    cmap = plt.get_cmap("tab10")
+    cmap = matplotlib.colormaps["tab10"]
     panels = [("nominal model", s["measured"] - s["baseline"])]
     if after:
         panels.append((f"with {' + '.join(doc['verdict']['effects'])}",
@@ -156,7 +157,7 @@ def candidates(doc: dict[str, Any], law: str | None = None) -> bytes | None:
     rows = list(reversed(rows))                 # best at the top
     y = np.arange(len(rows))
     sh = np.array([r["shrinkage"] if r["shrinkage"] is not None else np.nan for r in rows])
-    fig, ax = plt.subplots(figsize=(8, 0.45 * len(rows) + 1.2))
+    fig, ax = subplots(figsize=(8, 0.45 * len(rows) + 1.2))
     ax.barh(y, sh, color=["tab:green" if r["significant"] else "0.6" for r in rows])
     ax.set_yticks(y, [f"{r['effect']} (z {r['z']:.1f})" for r in rows], fontsize=8)
     ax.axvline(0.0, color="k", lw=0.7)
@@ -186,8 +187,8 @@ def region_before_after(doc: dict[str, Any], region: dict[str, Any],
     t = s["t"]
     after = _has_effects(doc)
     fx = " + ".join(doc.get("verdict", {}).get("effects") or [])
-    fig, (ax, axr) = plt.subplots(2, 1, figsize=(9, 5.4), sharex=True,
-                                  gridspec_kw={"height_ratios": [3, 2]})
+    fig, (ax, axr) = subplots(2, 1, figsize=(9, 5.4), sharex=True,
+                              gridspec_kw={"height_ratios": [3, 2]})
     ax.plot(t[in_run], s["measured"][in_run], "-", color=MEASURED, lw=0.6, alpha=0.35)
     ax.plot(t[in_run], s["baseline"][in_run], "-", color=BEFORE, lw=0.6, alpha=0.35)
     ax.plot(t[sel], s["measured"][sel], ".", ms=3, color=MEASURED, label="measured",

@@ -60,7 +60,7 @@ def prediction_series(fit, runs: Sequence[tuple[int, str, Any]],
 def predicted_vs_measured(series: dict[str, Any], title: str) -> bytes | None:
     """Measured and predicted output against time (runs side by side, training then held-out)
     and predicted against measured (scatter with the identity line)."""
-    from api.run_plots import _svg, plt
+    from api.run_plots import _svg, subplots
 
     if not series or not series.get("measured"):
         return None
@@ -70,7 +70,7 @@ def predicted_vs_measured(series: dict[str, Any], title: str) -> bytes | None:
     y = np.asarray(series["measured"], dtype=float)
     yh = np.asarray(series["predicted"], dtype=float)
     unit = f"[{series.get('unit', '')}]"
-    fig, (ax, axs) = plt.subplots(1, 2, figsize=(12, 4.2), gridspec_kw={"width_ratios": [3, 1.3]})
+    fig, (ax, axs) = subplots(1, 2, figsize=(12, 4.2), gridspec_kw={"width_ratios": [3, 1.3]})
     off = 0.0
     for r in dict.fromkeys(rid.tolist()):
         m = rid == r

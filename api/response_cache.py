@@ -12,8 +12,9 @@ Correctness: an entry's key carries what the answer is built from, which the rou
 cheap queries on every request, so when anything changes the key changes and the answer is
 recomputed: for aggregates the run's status, page and sample counts (its samples); for a report
 the whole run row (metadata included) and the ids of the results, stored documents and
-interruptions that refer to the run (run_fingerprint).
-Runs still being written are never cached. The cache lives in the process (not in SQL), so a
+interruptions that refer to the run (run_fingerprint); for a job report (whose page redraws
+every posterior, corner and diagnosis figure) the job's row and its results' documents
+(job_fingerprint). Runs still being written and jobs still queued or running are never cached. The cache lives in the process (not in SQL), so a
 new version of the report code never serves a report rendered by the old one.
 
 Concurrent requests for the same missing key compute it once (the others wait for it), so a
@@ -163,6 +164,24 @@ def run_fingerprint(store: Any, info: dict[str, Any]) -> tuple | None:
         intr = s.execute(select(func.count(), func.max(Interruption.id))
                          .where(Interruption.run_id == info["id"])).one()
     return (row, tuple(res), tuple(docs), tuple(intr))
+
+
+def job_fingerprint(store: Any, job: dict[str, Any]) -> tuple | None:
+    """What a job's report is built from, as a hashable tuple, from the job as the API shows it
+    (db.jobs.get_job: state, timings, error, result ids) and the count and newest id of the
+    stored documents of its results. None for a job still queued or running (not cacheable:
+    its progress and heartbeat change)."""
+    if job.get("state") in ("queued", "running"):
+        return None
+    from sqlalchemy import func, select
+
+    from db.models import Report, Result
+
+    results = select(Result.id).where(Result.job_id == job["id"])
+    with store.ReadSession() as s:
+        docs = s.execute(select(func.count(), func.max(Report.id))
+                         .where(Report.result_id.in_(results))).one()
+    return (repr(sorted(job.items(), key=lambda kv: kv[0])), tuple(docs))
 
 
 def json_bytes(value: Any) -> bytes:

@@ -1,30 +1,29 @@
-"""Figures of one run for its report (matplotlib Agg, SVG bytes): load and torque following,
-the twist–torque hysteresis loop, current vs torque per motor, temperatures. Each returns None
-when the run lacks the channels it needs."""
+"""Figures of one run for its report (SVG bytes): load and torque following, the twist–torque
+hysteresis loop, current vs torque per motor, temperatures. Each returns None when the run lacks
+the channels it needs.
+
+Figures are `matplotlib.figure.Figure` objects from `estimator.plots.subplots`, never drawn
+through `pyplot` (whose process-wide figure registry request threads drawing at the same time
+would share; see estimator/plots.py)."""
 
 from __future__ import annotations
 
 import io
 from typing import Mapping
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from core.channels import unit_of  # noqa: E402
+from core.channels import unit_of
+from estimator.plots import subplots
 
 MAX_POINTS = 4000
 """Points per curve in a report plot (decimated evenly; keeps the SVG light)."""
 
 
-def _svg(fig) -> bytes:
+def _svg(fig: Figure) -> bytes:
     buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format="svg", bbox_inches="tight")
-    finally:
-        plt.close(fig)
+    fig.savefig(buf, format="svg", bbox_inches="tight")
     return buf.getvalue()
 
 
@@ -43,7 +42,7 @@ def following(a: Mapping[str, np.ndarray]) -> bytes | None:
         return None
     k = _step(a)
     hyd = _have(a, "m_bend") or _have(a, "f_shear")
-    fig, axes = plt.subplots(2 if hyd else 1, 1, figsize=(9, 6 if hyd else 3.6), sharex=True,
+    fig, axes = subplots(2 if hyd else 1, 1, figsize=(9, 6 if hyd else 3.6), sharex=True,
                              squeeze=False)
     ax = axes[0, 0]
     t = a["t"][::k]
@@ -71,7 +70,7 @@ def hysteresis(a: Mapping[str, np.ndarray]) -> bytes | None:
     if not _have(a, "torsion", "torque"):
         return None
     k = _step(a)
-    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    fig, ax = subplots(figsize=(5.5, 4.2))
     ax.plot(np.asarray(a["torsion"])[::k] * 1e3, np.asarray(a["torque"])[::k] / 1e3, lw=0.8)
     ax.set_xlabel("twist q − u [mrad]")
     ax.set_ylabel("joint torque [kN·m]")
@@ -85,7 +84,7 @@ def current_vs_torque(a: Mapping[str, np.ndarray]) -> bytes | None:
     if not motors or not _have(a, "torque"):
         return None
     k = _step(a)
-    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    fig, ax = subplots(figsize=(5.5, 4.2))
     for m in motors:
         ax.plot(np.asarray(a["torque"])[::k] / 1e3, np.asarray(a[m])[::k], ".", ms=1.5, label=m)
     ax.set_xlabel("joint torque [kN·m]")
@@ -101,7 +100,7 @@ def temperatures(a: Mapping[str, np.ndarray]) -> bytes | None:
     if not names or not _have(a, "t"):
         return None
     k = _step(a)
-    fig, ax = plt.subplots(figsize=(9, 3.2))
+    fig, ax = subplots(figsize=(9, 3.2))
     for n in names:
         ax.plot(a["t"][::k], np.asarray(a[n])[::k], lw=1, label=n)
     ax.set_xlabel("time [s]")

@@ -16,11 +16,11 @@ import traceback
 from datetime import datetime, timedelta, timezone
 from typing import Any
 
-import numpy as np
-from sqlalchemy import insert, select, update
+from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
 
 from core.jsonsafe import json_safe
+from db.fits import insert_result
 from db.models import Job, Report, Result, ResultRun, utcnow
 from db.store import Store, process_token
 
@@ -162,7 +162,32 @@ def heartbeat(store: Store, job_id: int, worker: str, progress: float | None = N
         res = s.execute(update(Job).where(*_mine(job_id, worker)).values(**vals))
         if res.rowcount:
             return "running"
-        return s.execute(select(Job.status).where(Job.id == job_id)).scalar()
+    return state_for(store, job_id, worker)
+
+
+def state_for(store: Store, job_id: int, worker: str) -> str | None:
+    """A job's state as `worker` sees it (a read): 'running' while it runs under `worker`,
+    'taken over' when it runs under another, else its state (None: no such job)."""
+    with store.ReadSession() as s:
+        row = s.execute(select(Job.status, Job.worker).where(Job.id == job_id)).first()
+    if row is None:
+        return None
+    status, owner = row
+    return "taken over" if status == "running" and owner != worker else status
+
+
+def queue_counts(store: Store) -> dict[str, Any]:
+    """Jobs queued and running now, and how long the oldest queued job has waited [s]."""
+    from sqlalchemy import func
+
+    with store.ReadSession() as s:
+        counts = dict(s.execute(select(Job.status, func.count()).where(Job.status.in_(ACTIVE))
+                                .group_by(Job.status)).all())
+        oldest = aware_utc(s.execute(select(func.min(Job.created_at))
+                                     .where(Job.status == "queued")).scalar())
+    return {"queued": int(counts.get("queued", 0)), "running": int(counts.get("running", 0)),
+            "oldest_queued_s": None if oldest is None
+            else max(0.0, (utcnow() - oldest).total_seconds())}
 
 
 json_document = json_safe
@@ -181,20 +206,7 @@ def finish(store: Store, job_id: int, worker: str, results: list) -> bool:
         if res.rowcount != 1:
             return False            # nothing written in this transaction
         for r in results:
-            fit = r.fit
-            draws = None if fit.draws is None else np.ascontiguousarray(fit.draws, dtype="<f8")
-            rid = s.execute(insert(Result).values(
-                job_id=job_id, model=fit.model, method=fit.method, fit=fit.as_dict(),
-                draws=None if draws is None else draws.tobytes(),
-                draws_shape=None if draws is None else list(draws.shape),
-                created_at=now).returning(Result.id)).scalar_one()
-            for run_id, role in r.runs.items():
-                s.execute(insert(ResultRun).values(result_id=rid, run_id=run_id, role=role))
-            for kind, doc in getattr(r, "documents", {}).items():
-                s.execute(insert(Report).values(
-                    kind=kind, title=f"{kind} of job {job_id}", result_id=rid,
-                    media_type="application/json", created_at=now,
-                    content=json.dumps(json_document(doc), allow_nan=False).encode("utf-8")))
+            insert_result(s, r.fit, r.runs, getattr(r, "documents", {}), job_id=job_id, now=now)
     return True
 
 
@@ -219,10 +231,13 @@ def _worker_gone(worker: str | None, beat: datetime | None, now: datetime, stale
     return beat is None or now - beat > timedelta(seconds=stale_s)
 
 
-def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2) -> list[int]:
+def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2,
+                 local_grace_s: float = 0.0) -> list[int]:
     """Jobs left 'running' by a worker that is gone (its process ended on this host, or no
     heartbeat for stale_s from another host): re-queued while attempts < max_attempts, else
-    'failed' with the reason. Returns their ids."""
+    'failed' with the reason. Returns their ids. local_grace_s: a job of a gone worker of this
+    host is left alone until its last heartbeat is that old (a worker pool's supervisor, which
+    knows how the process ended, records it first: worker_died)."""
     now = utcnow()
     with store.ReadSession() as s:
         rows = s.execute(select(Job.id, Job.worker, Job.heartbeat_at, Job.attempts)
@@ -230,6 +245,9 @@ def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2) -> 
     lost = []
     for jid, worker, beat, attempts in rows:
         if not _worker_gone(worker, aware_utc(beat), now, stale_s):
+            continue
+        beat = aware_utc(beat)
+        if local_grace_s > 0 and beat is not None and now - beat < timedelta(seconds=local_grace_s):
             continue
         reason = (f"worker {worker} was lost while running the job "
                   f"(last heartbeat {(aware_utc(beat) or now).isoformat()})")
@@ -246,6 +264,32 @@ def recover_lost(store: Store, stale_s: float = 30.0, max_attempts: int = 2) -> 
             if res.rowcount:
                 lost.append(jid)
     return lost
+
+
+def worker_died(store: Store, worker: str, cause: str, max_attempts: int = 2) -> list[int]:
+    """The jobs left 'running' by `worker` ('host/pid/token'), whose process its supervisor saw
+    end with `cause` (e.g. 'killed by signal 9 (SIGKILL)'): re-queued while attempts <
+    max_attempts, else 'failed' — the job ended its worker process on every attempt it was
+    given — with the cause in the reason. Returns their ids."""
+    now = utcnow()
+    done = []
+    with store.Session.begin() as s:
+        rows = s.execute(select(Job.id, Job.attempts)
+                         .where(Job.status == "running", Job.worker == worker)).all()
+        for jid, attempts in rows:
+            what = f"its worker process {worker} died while running the job: {cause}"
+            if attempts < max_attempts:
+                vals = dict(status="queued", worker=None, worker_pid=None, progress=None,
+                            error=f"{what}; re-queued (attempt {attempts} of {max_attempts})")
+            else:
+                vals = dict(status="failed", finished_at=now,
+                            error=f"{what}; the job's worker process died on attempt {attempts} "
+                                  f"of {max_attempts}: not re-queued")
+            res = s.execute(update(Job).where(Job.id == jid, Job.status == "running",
+                                              Job.worker == worker).values(**vals))
+            if res.rowcount:
+                done.append(jid)
+    return done
 
 
 def results_of(store: Store, job_id: int) -> list[dict[str, Any]]:
@@ -284,11 +328,15 @@ def document_of(store: Store, job_id: int, kind: str) -> dict[str, Any] | None:
     return None if content is None else json.loads(content)
 
 
-def results_for_run(store: Store, run_id: int) -> list[dict[str, Any]]:
-    """The stored results that used a run: result id, job id, model, method and the run's role."""
+def results_for_run(store: Store, run_id: int, limit: int | None = None, offset: int = 0
+                    ) -> list[dict[str, Any]]:
+    """The stored results that used a run: result id, job id, model, method and the run's role
+    (oldest first; `limit` of them from `offset`, default all)."""
     q = (select(Result.id, Result.job_id, Result.model, Result.method, ResultRun.role)
          .join(ResultRun, ResultRun.result_id == Result.id)
-         .where(ResultRun.run_id == run_id).order_by(Result.id))
+         .where(ResultRun.run_id == run_id).order_by(Result.id, ResultRun.role).offset(offset))
+    if limit is not None:
+        q = q.limit(limit)
     with store.ReadSession() as s:
         return [{"result_id": a, "job_id": b, "model": c, "method": d, "role": e}
                 for a, b, c, d, e in s.execute(q).all()]

@@ -12,11 +12,13 @@ variance, min, max and counts are plain SQL aggregates over the statistics rows.
 from __future__ import annotations
 
 from datetime import datetime, timezone
-from typing import Any
+from typing import Any, get_args
 
 from sqlalchemy import (JSON, DateTime, Float, ForeignKey, ForeignKeyConstraint, Index, Integer,
                         LargeBinary, MetaData, String, Text, UniqueConstraint)
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+
+from core.documents import ExitStatus
 
 NAMING = {
     "ix": "ix_%(column_0_label)s",
@@ -27,7 +29,7 @@ NAMING = {
 }
 
 RUN_STATUSES = ("running", "finished", "interrupted")
-EXIT_STATUSES = ("success", "abort", "fail")
+EXIT_STATUSES: tuple[str, ...] = get_args(ExitStatus)
 JOB_STATUSES = ("queued", "running", "succeeded", "failed", "cancelled")
 
 
@@ -185,6 +187,16 @@ class ResultRun(Base):
     role: Mapped[str] = mapped_column(String(20), primary_key=True, default="train")
 
 
+class RigModel(Base):
+    """A stored fit marked as the rig's current model (the newest mark is the current one;
+    earlier marks stay as its history). The console's live twin predicts with it."""
+    __tablename__ = "rig_models"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    result_id: Mapped[int] = mapped_column(ForeignKey("results.id", ondelete="CASCADE"))
+    marked_by: Mapped[str] = mapped_column(String(200))
+    marked_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
 class Report(Base):
     """A rendered report (HTML, JSON, PNG...) about a run or a result."""
     __tablename__ = "reports"
@@ -200,7 +212,7 @@ class Report(Base):
 
 class ApiToken(Base):
     """An API token, stored only as its SHA-256 hash (db/tokens.py); `prefix` identifies it in
-    listings without revealing it."""
+    listings without revealing it. `expires_at` NULL: never expires."""
     __tablename__ = "api_tokens"
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(200))
@@ -210,3 +222,4 @@ class ApiToken(Base):
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
     last_used_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     revoked_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    expires_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))

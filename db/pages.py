@@ -182,3 +182,63 @@ def assemble(n: int, pages: Sequence[tuple[int, int, int, str | None]],
                     arr[i0:i0 + m] = np.array(decode_text(data), dtype=object)
         out[ch.name] = arr
     return out
+
+
+# --- reading a time range page by page -------------------------------------------------------
+
+@dataclass
+class PageShare:
+    """What a range read takes from one page: the page (seq, n samples, phase) and the
+    positions within it [samples from the page's first] of the samples returned."""
+    seq: int
+    n: int
+    phase: str | None
+    keep: np.ndarray
+
+
+def page_coverage(t_min: float | None, t_max: float | None, n_valid: int | None, n: int,
+                  t_start: float | None, t_end: float | None) -> str:
+    """How a page whose time channel spans [t_min, t_max] (its block statistics; None when the
+    page has no valid time) meets the range [t_start, t_end] (None: open): 'all' when every
+    sample is in it, 'none' when no sample is, else 'some' (the time block must be read to
+    tell). Without any bound every sample is in range, a missing time included (the whole run
+    is asked for); with a bound a missing time is out of it."""
+    if t_start is None and t_end is None:
+        return "all"
+    if t_min is None or t_max is None or not n_valid:
+        return "none"
+    if (t_start is not None and t_max < t_start) or (t_end is not None and t_min > t_end):
+        return "none"
+    inside = ((t_start is None or t_min >= t_start) and (t_end is None or t_max <= t_end))
+    return "all" if inside and n_valid == n else "some"
+
+
+def in_range_positions(t: np.ndarray, t_start: float | None, t_end: float | None) -> np.ndarray:
+    """Positions of the samples of a time block within [t_start, t_end] (None: open)."""
+    mask = np.ones(t.shape, dtype=bool)
+    if t_start is not None:
+        mask &= t >= t_start
+    if t_end is not None:
+        mask &= t <= t_end
+    return np.flatnonzero(mask).astype(np.int32)
+
+
+def decimation_stride(n_in_range: int, every: int, max_points: int) -> int:
+    """The stride over the samples in range that keeps every `every`-th and then, when more
+    than `max_points` are left, decimates further evenly to at most `max_points`."""
+    left = -(-n_in_range // every)
+    return every * max(1, -(-left // max_points))
+
+
+def block_values(ch: ChannelRef, share: PageShare, data: bytes | None) -> np.ndarray:
+    """The kept samples of one channel on one page from its stored block (None: no block, all
+    missing): float64 (NaN = missing) or object (None = missing) for text and phase."""
+    if ch.kind == "phase":
+        return np.full(share.keep.size, share.phase, dtype=object)
+    if ch.kind == "float":
+        if data is None:
+            return np.full(share.keep.size, np.nan)
+        return decode_float(data)[share.keep]
+    if data is None:
+        return np.full(share.keep.size, None, dtype=object)
+    return np.array(decode_text(data), dtype=object)[share.keep]

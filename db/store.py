@@ -10,18 +10,21 @@ from __future__ import annotations
 
 import os
 import socket
+from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 import pandas as pd
 from sqlalchemy import and_, func, insert, null, select, update
 
 from db.engine import make_engine, reader, session_factory
-from db.models import (EXIT_STATUSES, Channel, Interruption, Rig, Run, SampleBlock, SamplePage,
-                       utcnow)
-from db.pages import PAGE_SAMPLES, ChannelRef, assemble, channel_kind, write_pages
+from db.models import (EXIT_STATUSES, Channel, Interruption, ResultRun, Rig, Run, SampleBlock,
+                       SamplePage, utcnow)
+from db.pages import (PAGE_SAMPLES, ChannelRef, PageShare, assemble, block_values, channel_kind,
+                      decimation_stride, decode_float, in_range_positions, page_coverage,
+                      write_pages)
 from core.channels import PHASES, unit_of
 from core.run import RunData
 from core.runfile import validate_meta, validate_samples
@@ -31,8 +34,25 @@ STALE_AFTER_S = 30.0
 taken as interrupted [s] (a live writer commits at least every few seconds)."""
 
 
+PAGES_PER_READ = 32
+"""Pages fetched per query by a range read (32 float blocks of 128 KiB: 4 MiB at most held)."""
+
+
 class RunNotFound(KeyError):
     pass
+
+
+@dataclass
+class RangeRead:
+    """The samples of a run a range read returns (Store.select_range): the channels in the
+    order asked, how many samples lie in the time range, the stride over them (`every`), the
+    number returned per channel (`n`) and, per page holding any, which of its samples."""
+    run_id: int
+    channels: list[ChannelRef]
+    n_in_range: int
+    every: int
+    n: int
+    pages: list[PageShare]
 
 
 def _aware(dt: datetime | None) -> datetime | None:
@@ -252,6 +272,77 @@ class Store:
             blocks = _fetch_blocks(conn, run_id, None if channels is None else [c.id for c in chans])
         return assemble(n, pages, blocks, chans)
 
+    def select_range(self, run_id: int, channels: Iterable[str] | None = None,
+                     t_start: float | None = None, t_end: float | None = None,
+                     every: int = 1, max_points: int | None = None) -> RangeRead:
+        """Which samples a read of [t_start, t_end] (run time [s], None: open) of `channels`
+        (default all) returns: every `every`-th sample in range, decimated further evenly to at
+        most `max_points`. Reads no samples but the time blocks of the pages the range cuts
+        through: a page's time statistics say whether it lies wholly inside or outside.
+        RunNotFound for no run, KeyError for a channel the run lacks."""
+        if every < 1 or (max_points is not None and max_points < 1):
+            raise ValueError("every and max_points must be >= 1")
+        with self.ReadSession() as s:
+            conn = s.connection()
+            self._run_row(s, run_id)
+            refs = self.channel_refs(conn, run_id)
+            by_name = {ch.name: ch for ch in refs}
+            if channels is None:
+                chans = refs
+            else:
+                want = list(dict.fromkeys(channels))
+                missing = [c for c in want if c not in by_name]
+                if missing:
+                    raise KeyError(f"run {run_id} has no channel(s) {missing}")
+                chans = [by_name[c] for c in want]
+            tref = by_name.get("t")
+            b = SampleBlock.__table__
+            p = SamplePage.__table__
+            on = and_(b.c.run_id == p.c.run_id, b.c.seq == p.c.seq,
+                      b.c.channel_id == (tref.id if tref is not None else -1))
+            rows = conn.execute(select(p.c.seq, p.c.n, p.c.phase, b.c.vmin, b.c.vmax, b.c.n_valid)
+                                .select_from(p.outerjoin(b, on))
+                                .where(p.c.run_id == run_id).order_by(p.c.seq)).all()
+            cover = {r.seq: page_coverage(r.vmin, r.vmax, r.n_valid, r.n, t_start, t_end)
+                     for r in rows}
+            cut = [r.seq for r in rows if cover[r.seq] == "some"]
+            positions: dict[int, np.ndarray] = {}
+            for k in range(0, len(cut), PAGES_PER_READ):
+                for _, seq, data in fetch_page_blocks(conn, run_id, [tref.id],
+                                                      cut[k:k + PAGES_PER_READ]):
+                    positions[seq] = in_range_positions(decode_float(data), t_start, t_end)
+        counts = {r.seq: (r.n if cover[r.seq] == "all" else
+                          positions[r.seq].size if r.seq in positions else 0) for r in rows}
+        n_in_range = sum(counts.values())
+        stride = decimation_stride(n_in_range, every, max_points or max(n_in_range, 1))
+        pages, k0 = [], 0
+        for r in rows:
+            m = counts[r.seq]
+            if m:
+                first = (-k0) % stride
+                keep = (np.arange(first, m, stride, dtype=np.int64) if cover[r.seq] == "all"
+                        else positions[r.seq][first::stride].astype(np.int64))
+                if keep.size:
+                    pages.append(PageShare(seq=r.seq, n=r.n, phase=r.phase, keep=keep))
+                k0 += m
+        return RangeRead(run_id=run_id, channels=chans, n_in_range=n_in_range, every=stride,
+                         n=sum(pg.keep.size for pg in pages), pages=pages)
+
+    def range_values(self, sel: RangeRead, channel: ChannelRef,
+                     pages_per_read: int = PAGES_PER_READ) -> Iterator[np.ndarray]:
+        """The samples `sel` returns of one of its channels, as consecutive chunks (one per
+        `pages_per_read` pages), reading only the blocks of the pages holding any: memory is
+        bounded by one chunk whatever the run's length."""
+        for k in range(0, len(sel.pages), pages_per_read):
+            batch = sel.pages[k:k + pages_per_read]
+            data: dict[int, bytes] = {}
+            if channel.kind != "phase":
+                with self.ReadSession() as s:
+                    for _, seq, blob in fetch_page_blocks(s.connection(), sel.run_id, [channel.id],
+                                                          [pg.seq for pg in batch]):
+                        data[seq] = blob
+            yield np.concatenate([block_values(channel, pg, data.get(pg.seq)) for pg in batch])
+
     def load_run(self, run_id: int) -> RunData:
         """A stored run as RunData: samples in the stored channel order, meta as stored."""
         arrays = self.load_arrays(run_id)
@@ -286,21 +377,37 @@ class Store:
         with self.ReadSession() as s:
             return [_run_dict(r, name) for r, name in s.execute(q).all()]
 
-    def channels(self, run_id: int) -> list[dict[str, Any]]:
-        """A run's channels: name, unit, source, kind, in stored order."""
+    def channels(self, run_id: int, limit: int | None = None, offset: int = 0
+                 ) -> list[dict[str, Any]]:
+        """A run's channels: name, unit, source, kind, in stored order (`limit` of them from
+        `offset`, default all)."""
+        q = (select(Channel).where(Channel.run_id == run_id).order_by(Channel.position)
+             .offset(offset))
         with self.ReadSession() as s:
             self._run_row(s, run_id)
-            rows = s.execute(select(Channel).where(Channel.run_id == run_id)
-                             .order_by(Channel.position)).scalars().all()
+            rows = s.execute(q if limit is None else q.limit(limit)).scalars().all()
             return [{"name": c.name, "unit": c.unit, "source": c.source, "kind": c.kind}
                     for c in rows]
 
-    def interruptions(self, run_id: int) -> list[dict[str, Any]]:
+    def interruptions(self, run_id: int, limit: int | None = None, offset: int = 0
+                      ) -> list[dict[str, Any]]:
+        """A run's interruptions, oldest first (`limit` of them from `offset`, default all)."""
+        q = (select(Interruption).where(Interruption.run_id == run_id).order_by(Interruption.id)
+             .offset(offset))
         with self.ReadSession() as s:
-            rows = s.execute(select(Interruption).where(Interruption.run_id == run_id)
-                             .order_by(Interruption.id)).scalars().all()
+            rows = s.execute(q if limit is None else q.limit(limit)).scalars().all()
             return [{"kind": i.kind, "t_start": i.t_start, "t_end": i.t_end, "reason": i.reason,
                      "detail": i.detail, "created_at": _aware(i.created_at)} for i in rows]
+
+    def list_totals(self, run_id: int) -> dict[str, int]:
+        """How many channels, interruptions and results (result–run links) a run has: the
+        totals of the lists a run's detail pages through."""
+        with self.ReadSession() as s:
+            count = lambda q: s.execute(q).scalar_one()  # noqa: E731
+            return {"channels": count(select(func.count()).where(Channel.run_id == run_id)),
+                    "interruptions": count(select(func.count())
+                                           .where(Interruption.run_id == run_id)),
+                    "results": count(select(func.count()).where(ResultRun.run_id == run_id))}
 
     def phase_aggregates(self, run_id: int, by_phase: bool = True) -> pd.DataFrame:
         """Per channel and phase (or per channel over the whole run with by_phase=False), from
@@ -381,6 +488,24 @@ def _fetch_blocks(conn, run_id: int, channel_ids: list[int] | None) -> list[tupl
         SampleBlock.run_id == run_id)
     if channel_ids is not None:
         q = q.where(SampleBlock.channel_id.in_(channel_ids))
+    return [tuple(r) for r in conn.execute(q).all()]
+
+
+def fetch_page_blocks(conn, run_id: int, channel_ids: list[int], seqs: list[int]
+                      ) -> list[tuple[int, int, bytes]]:
+    """(channel_id, seq, data) of the blocks of `channel_ids` on the pages `seqs` of a run
+    (a primary-key lookup per block); binary transfer on PostgreSQL as in _fetch_blocks."""
+    if not channel_ids or not seqs:
+        return []
+    if conn.engine.dialect.name == "postgresql":
+        with conn.connection.dbapi_connection.cursor(binary=True) as cur:
+            cur.execute("SELECT channel_id, seq, data FROM sample_blocks WHERE run_id = %s"
+                        " AND channel_id = ANY(%s) AND seq = ANY(%s)",
+                        [run_id, list(channel_ids), list(seqs)])
+            return cur.fetchall()
+    q = select(SampleBlock.channel_id, SampleBlock.seq, SampleBlock.data).where(
+        SampleBlock.run_id == run_id, SampleBlock.channel_id.in_(channel_ids),
+        SampleBlock.seq.in_(seqs))
     return [tuple(r) for r in conn.execute(q).all()]
 
 

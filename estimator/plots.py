@@ -1,37 +1,44 @@
-"""Figures of the paper's Section V with matplotlib's Agg backend (no display needed): predicted vs
+"""Figures of the paper's Section V (no display needed): predicted vs
 measured output (Figs. 9, 11, 13), posterior histograms (Figs. 12, 20), corner plots (Figs. 10, 19),
 R-hat every 200 iterations (Figs. 16–17), autocorrelation (Figs. 14–15) and Sobol index bars
 (Figs. 21–24, data from estimator.sobol).
 
 Every function returns the figure as bytes in `fmt` ('svg' or 'png'), or writes it to `path`
-(format from the suffix) and returns the path."""
+(format from the suffix) and returns the path.
+
+Figures are `matplotlib.figure.Figure` objects made by `subplots` here, never drawn through
+`pyplot`: pyplot keeps a process-wide registry of open figures and a current figure, shared by
+every thread, and the service draws report figures from request threads at the same time. A
+Figure owned by one call needs no closing and no backend selection."""
 
 from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from estimator.result import Fit  # noqa: E402
+from estimator.result import Fit
 
 
-def _emit(fig, path: str | Path | None, fmt: str) -> bytes | Path:
-    try:
-        if path is not None:
-            path = Path(path)
-            fig.savefig(path, format=path.suffix.lstrip(".") or fmt, bbox_inches="tight")
-            return path
-        buf = io.BytesIO()
-        fig.savefig(buf, format=fmt, bbox_inches="tight")
-        return buf.getvalue()
-    finally:
-        plt.close(fig)
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float],
+             **kw: Any) -> tuple[Figure, Any]:
+    """A new figure [inches] and its axes (`Figure.subplots` keywords: sharex, squeeze,
+    gridspec_kw, ...), owned by the caller alone: no pyplot state."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kw)
+
+
+def _emit(fig: Figure, path: str | Path | None, fmt: str) -> bytes | Path:
+    if path is not None:
+        path = Path(path)
+        fig.savefig(path, format=path.suffix.lstrip(".") or fmt, bbox_inches="tight")
+        return path
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, bbox_inches="tight")
+    return buf.getvalue()
 
 
 def predicted_vs_measured(t: np.ndarray, y: np.ndarray, predictions: Mapping[str, np.ndarray],
@@ -41,8 +48,8 @@ def predicted_vs_measured(t: np.ndarray, y: np.ndarray, predictions: Mapping[str
     """Measured output and each method's prediction against time, residuals underneath."""
     t = np.asarray(t, dtype=float)
     step = max(1, t.size // max_points)
-    fig, (ax, axr) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True,
-                                  gridspec_kw={"height_ratios": [3, 1]})
+    fig, (ax, axr) = subplots(2, 1, figsize=(9, 5.5), sharex=True,
+                              gridspec_kw={"height_ratios": [3, 1]})
     ax.plot(t[::step], np.asarray(y)[::step], color="0.2", lw=0.8, label="measured")
     for label, yh in predictions.items():
         ax.plot(t[::step], np.asarray(yh)[::step], lw=0.9, label=label)
@@ -70,7 +77,7 @@ def posterior_histograms(fit: Fit, truth: Sequence[float] | None = None, bins: i
     p = d.shape[1]
     cols = min(p, 3)
     rows = int(np.ceil(p / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(3.3 * cols, 2.6 * rows), squeeze=False)
+    fig, axes = subplots(rows, cols, figsize=(3.3 * cols, 2.6 * rows), squeeze=False)
     for j in range(rows * cols):
         ax = axes.flat[j]
         if j >= p:
@@ -95,7 +102,7 @@ def corner_plot(fit: Fit, bins: int = 40, max_points: int = 2000, path: str | Pa
     p = d.shape[1]
     rng = np.random.default_rng(0)
     sub = d[rng.choice(d.shape[0], size=min(max_points, d.shape[0]), replace=False)]
-    fig, axes = plt.subplots(p, p, figsize=(1.9 * p + 1, 1.9 * p + 1), squeeze=False)
+    fig, axes = subplots(p, p, figsize=(1.9 * p + 1, 1.9 * p + 1), squeeze=False)
     for i in range(p):
         for j in range(p):
             ax = axes[i, j]
@@ -126,7 +133,7 @@ def rhat_trace_plot(fits: Sequence[Fit], path: str | Path | None = None, fmt: st
     fits = [f for f in fits if f.diagnostics.get("rhat_trace")]
     if not fits:
         raise ValueError("no fit with an R-hat trace")
-    fig, axes = plt.subplots(1, len(fits), figsize=(5 * len(fits), 3.4), squeeze=False)
+    fig, axes = subplots(1, len(fits), figsize=(5 * len(fits), 3.4), squeeze=False)
     for ax, f in zip(axes.flat, fits):
         tr = f.diagnostics["rhat_trace"]
         its, r = np.asarray(tr["iterations"]), np.asarray(tr["rhat"])
@@ -146,7 +153,7 @@ def autocorr_plot(fit: Fit, path: str | Path | None = None, fmt: str = "svg") ->
     acf = np.asarray(fit.diagnostics.get("autocorr"))
     if acf.ndim != 2:
         raise ValueError(f"the {fit.method!r} fit has no autocorrelation to plot")
-    fig, ax = plt.subplots(figsize=(6, 3.4))
+    fig, ax = subplots(figsize=(6, 3.4))
     for j, n in enumerate(fit.param_names):
         ax.plot(np.arange(acf.shape[0]), acf[:, j], lw=1, label=n)
     ax.axhline(0, color="0.5", lw=0.8)
@@ -165,7 +172,7 @@ def sobol_bars(names: Sequence[str], S1: Sequence[float], ST: Sequence[float],
     confidence half-widths."""
     x = np.arange(len(names))
     w = 0.38
-    fig, ax = plt.subplots(figsize=(max(5, 1.1 * len(names) + 2), 3.6))
+    fig, ax = subplots(figsize=(max(5, 1.1 * len(names) + 2), 3.6))
     ax.bar(x - w / 2, S1, w, yerr=S1_conf, capsize=3, label="first order $S_1$")
     ax.bar(x + w / 2, ST, w, yerr=ST_conf, capsize=3, label="total effect $S_T$")
     ax.set_xticks(x, list(names))

@@ -153,3 +153,92 @@ def test_settings_come_from_rig_environment(monkeypatch):
         ("sqlite:////tmp/x/rig.sqlite", 8123, 3, 2048, "127.0.0.1")
     assert Settings.from_env(port=9000, workers=None).port == 9000
     assert Settings.from_env(port=9000, workers=None).workers == 3
+
+
+# --- token expiry, token listing pages, Idempotency-Key per token ------------------------------
+
+def test_expired_token_is_refused_with_401(api):
+    from datetime import timedelta
+
+    from sqlalchemy import update
+
+    from db.models import ApiToken, utcnow
+
+    r = api.client.post("/tokens", json={"name": "short", "role": "viewer", "expires_in_s": 3600},
+                        headers=api.h("admin"))
+    assert r.status_code == 201
+    secret, tid = r.json()["token"], r.json()["id"]
+    h = {"Authorization": f"Bearer {secret}"}
+    assert api.client.get("/runs", headers=h).status_code == 200           # not yet expired
+    with api.store.Session.begin() as s:                                    # an hour goes by
+        s.execute(update(ApiToken).where(ApiToken.id == tid)
+                  .values(expires_at=utcnow() - timedelta(seconds=1)))
+    r = api.client.get("/runs", headers=h)
+    assert r.status_code == 401 and r.headers.get("www-authenticate") == "Bearer"
+    for bad in (0, -5, 1e12, "soon"):
+        r = api.client.post("/tokens", json={"name": "x", "role": "viewer", "expires_in_s": bad},
+                            headers=api.h("admin"))
+        assert r.status_code == 422, bad
+    forever = api.client.post("/tokens", json={"name": "forever", "role": "viewer"},
+                              headers=api.h("admin")).json()
+    assert forever["expires_at"] is None
+    listing = {t["id"]: t for t in api.client.get("/tokens", params={"limit": 1000},
+                                                   headers=api.h("admin")).json()}
+    assert listing[tid]["expires_at"] is not None and listing[forever["id"]]["expires_at"] is None
+
+
+def test_cli_token_create_with_expiry(api, capsys):
+    from commands.cli import main
+
+    from db.tokens import verify_token
+
+    assert main(["token", "create", "--role", "viewer", "--expires-in", "7d",
+                 "--db", api.url]) == 0
+    secret = capsys.readouterr().out.strip()
+    row = verify_token(api.store, secret)
+    assert row is not None and row.expires_at is not None
+    assert main(["token", "create", "--role", "viewer", "--expires-in", "nan",
+                 "--db", api.url]) == 2
+    assert "--expires-in" in capsys.readouterr().err
+    assert main(["token", "list", "--db", api.url]) == 0
+    assert "expires" in capsys.readouterr().out
+
+
+def test_token_listing_is_paged_with_the_total(api):
+    for k in range(3):
+        api.client.post("/tokens", json={"name": f"page-{k}", "role": "viewer"},
+                        headers=api.h("admin"))
+    whole = api.client.get("/tokens", params={"limit": 1000}, headers=api.h("admin"))
+    total = int(whole.headers["x-total-count"])
+    assert total == len(whole.json()) >= 6
+    ids = [t["id"] for t in whole.json()]
+    assert ids == sorted(ids)
+    page = api.client.get("/tokens", params={"limit": 2, "offset": 1}, headers=api.h("admin"))
+    assert [t["id"] for t in page.json()] == ids[1:3]
+    assert int(page.headers["x-total-count"]) == total
+    assert api.client.get("/tokens", params={"limit": 0},
+                          headers=api.h("admin")).status_code == 422
+
+
+def test_idempotency_key_belongs_to_the_token(api):
+    from db.tokens import create_token
+
+    other = {"Authorization": f"Bearer {create_token(api.store, 'ops-2', ['operator'])}"}
+    mine = api.h("operator")
+    body = _job_body(api)
+    key = {"Idempotency-Key": "shared-key-1"}
+    a1 = api.client.post("/jobs", json=body, headers={**mine, **key})
+    a2 = api.client.post("/jobs", json=body, headers={**mine, **key})
+    b1 = api.client.post("/jobs", json=body, headers={**other, **key})
+    b2 = api.client.post("/jobs", json=body, headers={**other, **key})
+    assert (a1.status_code, a2.status_code, b1.status_code, b2.status_code) == (202, 200, 202, 200)
+    assert a1.json()["id"] == a2.json()["id"]                      # same token: same job back
+    assert b1.json()["id"] == b2.json()["id"] != a1.json()["id"]   # other token: its own job
+    # another token's key neither conflicts with nor reveals the first token's job
+    body2 = {**body, "params": {**body["params"], "method": "exact"}}
+    c = api.client.post("/jobs", json=body2, headers={**other, "Idempotency-Key": "mine-only"})
+    assert c.status_code == 202
+    assert api.client.post("/jobs", json=body,
+                           headers={**mine, "Idempotency-Key": "mine-only"}).status_code == 202
+    r = api.client.post("/jobs", json=body2, headers={**mine, **key})
+    assert r.status_code == 409 and "shared-key-1" in r.json()["detail"]

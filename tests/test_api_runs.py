@@ -46,20 +46,63 @@ def test_run_detail_and_404(api):
     assert api.client.get("/runs/99999", headers=api.h("viewer")).status_code == 404
 
 
+def test_run_detail_lists_are_paged_with_their_totals(api):
+    rid = api.runs["fast"]
+    names = list(api.store.load_run(rid).samples.columns)
+    d = _get(api, f"/runs/{rid}")
+    assert d["totals"] == {"channels": len(names), "interruptions": len(d["interruptions"]),
+                           "results": len(d["results"])}
+    page = _get(api, f"/runs/{rid}", limit=3, offset=2)
+    assert [c["name"] for c in page["channels"]] == names[2:5]
+    assert page["totals"] == d["totals"] and page["n_samples"] == d["n_samples"]
+    assert _get(api, f"/runs/{rid}", offset=len(names))["channels"] == []
+    r = api.client.get(f"/runs/{rid}", params={"limit": 10**6}, headers=api.h("viewer"))
+    assert r.status_code == 422
+
+
 def test_channel_data_time_range_and_decimation(api):
     rid = api.runs["fast"]
     arr = api.store.load_arrays(rid, ["t", "torque", "phase"])
     d = _get(api, f"/runs/{rid}/data", channels="torque,phase", t_start=10.0, t_end=20.0, every=3)
     sel = np.flatnonzero((arr["t"] >= 10.0) & (arr["t"] <= 20.0))[::3]
     assert set(d["channels"]) == {"t", "torque", "phase"}
-    assert d["n"] == sel.size and d["every"] == 3
+    assert d["n"] == sel.size and d["every"] == 3 and d["capped"] is False
+    assert d["n_in_range"] == int(((arr["t"] >= 10.0) & (arr["t"] <= 20.0)).sum())
     np.testing.assert_array_equal(d["channels"]["t"], arr["t"][sel])
     np.testing.assert_allclose(d["channels"]["torque"], arr["torque"][sel])
     assert d["channels"]["phase"] == list(arr["phase"][sel])
     d = _get(api, f"/runs/{rid}/data", channels="q", max_points=100)   # decimated to the cap
     assert d["n"] <= 100 and d["every"] == int(np.ceil(arr["t"].size / 100))
+    assert d["capped"] is True and d["max_points"] == 100 and d["n_in_range"] == arr["t"].size
     r = api.client.get(f"/runs/{rid}/data", params={"channels": "nope"}, headers=api.h("viewer"))
     assert r.status_code == 404 and "nope" in r.json()["detail"]
+
+
+def test_channel_data_reads_only_the_pages_of_the_range(api, monkeypatch):
+    """A narrow time range of one channel fetches the blocks of the one or two pages holding
+    it (the time channel to cut the range, then time and the channel), never the whole run."""
+    import db.store
+
+    rid = api.runs["fast"]
+    info = api.store.run_info(rid)
+    fetched: list[tuple[int, int]] = []
+    real = db.store.fetch_page_blocks
+
+    def counting(conn, run_id, channel_ids, seqs):
+        rows = real(conn, run_id, channel_ids, seqs)
+        fetched.extend((r[0], r[1]) for r in rows)
+        return rows
+    monkeypatch.setattr(db.store, "fetch_page_blocks", counting)
+    loads = []
+    monkeypatch.setattr(type(api.store), "load_arrays",
+                        lambda *a, **k: loads.append(a) or pytest.fail("whole-run load"))
+    t_mid = info["t_last"] / 2
+    d = _get(api, f"/runs/{rid}/data", channels="torque", t_start=t_mid, t_end=t_mid + 0.05)
+    assert d["n"] > 0 and d["capped"] is False and set(d["channels"]) == {"t", "torque"}
+    assert all(t_mid <= t <= t_mid + 0.05 for t in d["channels"]["t"])
+    seqs = {seq for _, seq in fetched}
+    assert 1 <= len(seqs) <= 2 and len(fetched) <= 3 * len(seqs)
+    assert len(fetched) < info["n_pages"] * 2 and not loads
 
 
 def test_phase_aggregates_match_numpy(api):

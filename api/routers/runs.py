@@ -3,15 +3,16 @@
 
 from __future__ import annotations
 
-import math
+import json
 from datetime import datetime
 from enum import IntEnum
-from typing import Any, Literal
+from typing import Any, Iterator, Literal
 
-import numpy as np
 from fastapi import APIRouter, HTTPException, Query, Response
+from fastapi.responses import StreamingResponse
 from sqlalchemy import select
 
+from api.answers import Acceptance, PhaseAggregate, RunDetail, RunSamples, RunSummary
 from api.deps import ERRORS, Id, MAX_ID, StoreDep, Viewer
 from db.jobs import aware_utc, results_for_run
 from db.models import Rig, Run
@@ -29,16 +30,22 @@ class Direction(IntEnum):
 MAX_POINTS = 100_000
 """Most samples per channel one data request returns (ask for decimation beyond)."""
 
+MAX_LIST = 5000
+"""Most items of each list one run detail request returns (page with offset beyond)."""
+
 
 def _summary(r: Run, rig: str | None) -> dict[str, Any]:
     meta = r.meta or {}
     return {"id": r.id, "rig": rig, "scheme": r.scheme, "source": r.source, "status": r.status,
             "exit_status": r.exit_status, "motor_speed_rpm": meta.get("motor_speed_rpm"),
-            "direction": meta.get("direction"), "started_at": aware_utc(r.started_at),
+            "direction": meta.get("direction"),
+            "operator": None if meta.get("operator") is None else str(meta["operator"]),
+            "started_at": aware_utc(r.started_at),
             "stopped_at": aware_utc(r.stopped_at), "n_samples": r.n_samples, "t_last": r.t_last}
 
 
-@router.get("", summary="List runs, newest first, with filters")
+@router.get("", summary="List runs, newest first, with filters",
+            response_model=list[RunSummary])
 def list_runs(store: StoreDep, _: Viewer,
               scheme: int | None = Query(None, ge=1, le=3),
               speed: float | None = Query(None, ge=0, le=1e5, description="motor speed [r/min]"),
@@ -46,6 +53,7 @@ def list_runs(store: StoreDep, _: Viewer,
               rig: str | None = Query(None, max_length=200),
               status: Literal["running", "finished", "interrupted"] | None = None,
               source: str | None = Query(None, max_length=20),
+              operator: str | None = Query(None, max_length=200, description="who ran it"),
               started_after: datetime | None = None, started_before: datetime | None = None,
               limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, ge=0, le=MAX_ID)
               ) -> list[dict[str, Any]]:
@@ -62,6 +70,8 @@ def list_runs(store: StoreDep, _: Viewer,
         q = q.where(Run.status == status)
     if source:
         q = q.where(Run.source == source)
+    if operator:
+        q = q.where(Run.meta["operator"].as_string() == operator)
     if started_after is not None:
         q = q.where(Run.started_at >= started_after)
     if started_before is not None:
@@ -77,19 +87,28 @@ def _info(store, run_id: int) -> dict[str, Any]:
         raise HTTPException(404, f"no run {run_id}") from None
 
 
-@router.get("/{run_id}", summary="A run: status, metadata, channels, interruptions, results using it")
-def get_run(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
+@router.get("/{run_id}", summary="A run: status, metadata, channels, interruptions, results using it",
+            response_model=RunDetail)
+def get_run(run_id: Id, store: StoreDep, _: Viewer,
+            limit: int = Query(500, ge=1, le=MAX_LIST,
+                               description="most items of each list (channels, interruptions, results)"),
+            offset: int = Query(0, ge=0, le=MAX_ID, description="items of each list skipped")
+            ) -> dict[str, Any]:
+    """The lists are paged alike (`limit` items of each from `offset`, in stored order); how
+    many each holds in all is under "totals"."""
     info = _info(store, run_id)
-    info["channels"] = store.channels(run_id)
-    info["interruptions"] = store.interruptions(run_id)
-    info["results"] = results_for_run(store, run_id)
+    info["channels"] = store.channels(run_id, limit, offset)
+    info["interruptions"] = store.interruptions(run_id, limit, offset)
+    info["results"] = results_for_run(store, run_id, limit, offset)
+    info["totals"] = store.list_totals(run_id)
     return info
 
 
 _jsonable = finite_list
 
 
-@router.get("/{run_id}/data", summary="Channel samples in a time range, decimated")
+@router.get("/{run_id}/data", summary="Channel samples in a time range, decimated",
+            response_model=RunSamples)
 def run_data(run_id: Id, store: StoreDep, _: Viewer,
              channels: str | None = Query(None, max_length=2000,
                                           description="comma-separated channel names (default all)"),
@@ -98,27 +117,38 @@ def run_data(run_id: Id, store: StoreDep, _: Viewer,
              every: int = Query(1, ge=1, le=MAX_ID, description="keep every n-th sample"),
              max_points: int = Query(10_000, ge=1, le=MAX_POINTS,
                                      description="decimate further to at most this many")
-             ) -> dict[str, Any]:
-    _info(store, run_id)
+             ) -> Response:
+    """Streamed as JSON: {"run_id", "n" (samples per channel), "every" (stride over the samples
+    in range), "n_in_range", "max_points", "capped" (true when max_points decimated beyond
+    `every`), "channels": {name: [values]}} with "t" first. Reads only the pages holding
+    samples of the range and only the channels asked, a few pages at a time
+    (Store.select_range / range_values), so memory does not grow with the run."""
     names = None
     if channels:
         names = [c.strip() for c in channels.split(",") if c.strip()]
         names = ["t"] + [c for c in names if c != "t"]
     try:
-        arrays = store.load_arrays(run_id, names)
+        sel = store.select_range(run_id, names, t_start, t_end, every, max_points)
+    except RunNotFound:
+        raise HTTPException(404, f"no run {run_id}") from None
     except KeyError as e:           # a channel the run does not have
         raise HTTPException(404, str(e.args[0] if e.args else e)) from None
-    t = arrays["t"]
-    mask = np.ones(t.shape, dtype=bool)
-    if t_start is not None:
-        mask &= t >= t_start
-    if t_end is not None:
-        mask &= t <= t_end
-    idx = np.flatnonzero(mask)[::every]
-    step = max(1, math.ceil(idx.size / max_points))
-    idx = idx[::step]
-    return {"run_id": run_id, "n": int(idx.size), "every": every * step,
-            "channels": {k: _jsonable(v[idx]) for k, v in arrays.items()}}
+    head = {"run_id": run_id, "n": sel.n, "every": sel.every, "n_in_range": sel.n_in_range,
+            "max_points": max_points, "capped": sel.every > every}
+
+    def body() -> Iterator[bytes]:
+        yield json.dumps(head)[:-1].encode() + b', "channels": {'
+        for k, ch in enumerate(sel.channels):
+            yield (", " if k else "").encode() + json.dumps(ch.name).encode() + b": ["
+            first = True
+            for chunk in store.range_values(sel, ch):
+                if chunk.size:
+                    text = json.dumps(_jsonable(chunk), allow_nan=False)[1:-1]
+                    yield (text if first else ", " + text).encode()
+                    first = False
+            yield b"]"
+        yield b"}}"
+    return StreamingResponse(body(), media_type="application/json")
 
 
 def _finished_key(store, run_id: int) -> tuple | None:
@@ -133,7 +163,7 @@ def _finished_key(store, run_id: int) -> tuple | None:
 
 
 @router.get("/{run_id}/aggregates", summary="Per-phase mean, variance, min, max, count (SQL)",
-            response_model=list[dict[str, Any]])
+            response_model=list[PhaseAggregate])
 def run_aggregates(run_id: Id, store: StoreDep, _: Viewer, by_phase: bool = True) -> Response:
     """Computed in SQL over the page statistics; for a run no longer being written, once per
     service process and kept encoded (api/response_cache.py), keyed by the run's page and
@@ -154,7 +184,8 @@ def run_aggregates(run_id: Id, store: StoreDep, _: Viewer, by_phase: bool = True
     return Response(body, media_type="application/json")
 
 
-@router.get("/{run_id}/acceptance", summary="Acceptance indicators (Table 11) with pass/fail")
+@router.get("/{run_id}/acceptance", summary="Acceptance indicators (Table 11) with pass/fail",
+            response_model=Acceptance)
 def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
     """Judged on the whole run; for a run no longer being written, once per service process
     (api/response_cache.py), keyed by the run's row (samples, pages, metadata)."""
@@ -173,3 +204,21 @@ def run_acceptance(run_id: Id, store: StoreDep, _: Viewer) -> dict[str, Any]:
     if row is None:
         return compute()
     return cache_for(store).get_or_compute(("acceptance", run_id, row), compute)
+
+
+@router.get("/{run_id}/file", summary="The run in the interchange format (run-format.md), as a "
+                                      "zip of run-<id>.csv|.parquet and run-<id>.json",
+            response_class=Response,
+            responses={200: {"content": {"application/zip": {}}}})
+def run_file(run_id: Id, store: StoreDep, _: Viewer,
+             format: Literal["csv", "parquet"] = Query("csv", description="sample file format")
+             ) -> Response:
+    from db.run_export import run_archive
+
+    _info(store, run_id)
+    try:
+        body = run_archive(store, run_id, format)
+    except RunNotFound:
+        raise HTTPException(404, f"no run {run_id}") from None
+    return Response(body, media_type="application/zip", headers={
+        "Content-Disposition": f'attachment; filename="run-{run_id}.zip"'})
