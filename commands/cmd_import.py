@@ -17,37 +17,58 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="database URL (default: $RIG_DB_URL or ./rig-data/rig.sqlite)")
 
 
+def counted(items, bar):
+    """`items`, one `bar.update(1)` after each is done (whether the loop body finished it or
+    skipped it with `continue`)."""
+    for x in items:
+        yield x
+        bar.update(1)
+
+
 def run(args: argparse.Namespace) -> int:
     import json
     import sys
     from pathlib import Path
 
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from commands.progress import progress
     from db.store import Store
     from core.emps import load_emps
     from core.runfile import RunFileError, read_run, run_paths
 
+    failures: list[str] = []
+
+    def refuse(problem: str) -> None:
+        print(f"refused: {problem}", file=sys.stderr)
+        failures.append(problem)
+
     targets: list[Path] = []
-    refused = 0
     for p in args.paths:
         path = Path(p)
         try:
             data = path if path.suffix == ".mat" else run_paths(path)[0]
         except RunFileError as exc:
-            print(f"refused: {exc}", file=sys.stderr)
-            refused += 1
+            refuse(str(exc))
             continue
         if data.resolve() not in [t.resolve() for t in targets]:
             targets.append(data)
     imported = []
-    with Store(args.db) as store:
-        for data in targets:
+    with Store(args.db) as store, progress(len(targets), "import", "file",
+                                           disable=len(targets) < 2) as bar:
+        for data in counted(targets, bar):
+            # each file alone: read and validated whole, then stored in one transaction, so a
+            # file that fails leaves nothing of itself and the others still go in
             try:
                 run_data = load_emps(data) if data.suffix == ".mat" else read_run(data)
+                rid = store.save_run(run_data, imported_from=str(data.resolve()))
             except RunFileError as exc:
-                print(f"refused: {exc}", file=sys.stderr)
-                refused += 1
+                refuse(str(exc))
                 continue
-            rid = store.save_run(run_data, imported_from=str(data.resolve()))
+            except SQLAlchemyError as exc:  # e.g. a value this database cannot hold
+                refuse(f"{data}: the database refused it, nothing stored: "
+                       f"{str(getattr(exc, 'orig', None) or exc).splitlines()[0]}")
+                continue
             imported.append({"run_id": rid, "source_file": str(data), "samples": len(run_data),
                              "channels": list(run_data.samples.columns)})
     if args.json:
@@ -55,4 +76,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         for r in imported:
             print(f"{r['run_id']}\t{r['source_file']}")
-    return 1 if refused else 0
+    if failures:
+        print(f"imported {len(imported)} file(s); {len(failures)} refused, nothing stored of them:",
+              file=sys.stderr)
+        for problem in failures:
+            print(f"  {problem}", file=sys.stderr)
+    return 1 if failures else 0

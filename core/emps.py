@@ -27,10 +27,22 @@ UNITS: dict[str, str] = {"t": "s", "qm": "m", "qg": "m", "vir": "V", "force": "N
 """Units of the EMPS channels (README of ../shared/data/emps/)."""
 
 
-def _scalar(mat: dict[str, Any], key: str, path: Path) -> float:
+def _vector(mat: dict[str, Any], key: str, path: Path) -> np.ndarray:
+    """Field `key` as a 1-D float array; a struct, cell, text or complex field is refused."""
     if key not in mat:
         raise RunFileError(path, None, key, "field missing from the EMPS record")
-    return float(np.asarray(mat[key]).ravel()[0])
+    raw = np.asarray(mat[key])
+    if raw.dtype.kind not in "biuf":  # struct/cell (object, void), text, complex
+        raise RunFileError(path, None, key, f"expected a real numeric array, got MATLAB "
+                           f"{'struct' if raw.dtype.names else 'cell, text or complex'} data")
+    return raw.astype(float).ravel()
+
+
+def _scalar(mat: dict[str, Any], key: str, path: Path) -> float:
+    v = _vector(mat, key, path)
+    if v.size != 1:
+        raise RunFileError(path, None, key, f"expected one number, got {v.size}")
+    return float(v[0])
 
 
 def load_emps(path: Path | str) -> RunData:
@@ -46,17 +58,16 @@ def load_emps(path: Path | str) -> RunData:
         raise RunFileError(path, None, None, f"not a readable MATLAB file: {exc}") from None
     cols: dict[str, np.ndarray] = {}
     for key in ("t", "qm", "qg", "vir"):
-        if key not in mat:
-            raise RunFileError(path, None, key, "field missing from the EMPS record")
-        cols[key] = np.asarray(mat[key], dtype=float).ravel()
+        cols[key] = _vector(mat, key, path)
     gtau = _scalar(mat, "gtau", path)
     cols["force"] = gtau * cols["vir"]
     if "pulses_N" in mat:
-        cols["pulses_N"] = np.asarray(mat["pulses_N"], dtype=float).ravel()
+        cols["pulses_N"] = _vector(mat, "pulses_N", path)
     n = len(cols["t"])
     for key, v in cols.items():
         if len(v) != n:
             raise RunFileError(path, None, key, f"{len(v)} samples where 't' has {n}")
+    samples = validate_samples(pd.DataFrame(cols), path)  # first: 't' increasing before dt
     dt = np.diff(cols["t"])
     meta: dict[str, Any] = {
         "source": "import",
@@ -70,5 +81,4 @@ def load_emps(path: Path | str) -> RunData:
         "units": {k: UNITS[k] for k in cols},
         "citation": CITATION,
     }
-    samples = validate_samples(pd.DataFrame(cols), path)
     return RunData(samples=samples, meta=validate_meta(meta, path))

@@ -17,8 +17,12 @@ Rules applied when reading (documented here so the code and the page cannot disa
 - Column names must be non-empty and unique.
 - Metadata must be a JSON object; the keys of run-format.md (and the acceptance set points of
   core.acceptance) must have the documented kind; unknown keys are kept as they are; numbers
-  must be finite. Rows are counted from 1 at the first sample (the header is not a row); for a
-  CSV the line number is given too.
+  must be finite, and it may nest at most META_MAX_DEPTH levels deep. Rows are counted from 1 at
+  the first sample (the header is not a row); for a CSV the line number is given too.
+- A CSV is UTF-8 text; every row has exactly as many cells as the header, and the last line ends
+  with a line end (a file cut short mid-line would otherwise store a truncated number as data).
+- Any file that cannot be read (bad encoding, nesting too deep for the parser, a corrupt
+  Parquet file) is refused with a RunFileError naming it, like any other broken rule.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from core.channels import CHANNELS, PHASES
+from core.documents import RunMeta
 from core.run import RunData
 
 DATA_SUFFIXES = (".csv", ".parquet")
@@ -157,10 +162,31 @@ META_KEYS: dict[str, Callable[[Any], str | None]] = {
 scheme-3 run, or the scheme of a record from another rig). Unknown keys are kept unchecked."""
 
 
-def validate_meta(meta: Any, file: Path | str) -> dict[str, Any]:
+META_MAX_DEPTH = 32
+"""Deepest nesting of objects/lists allowed in metadata (the top-level object is depth 1): deep
+enough for any real record, shallow enough that no recursive reader or JSON encoder on the way
+to the database can overflow its stack."""
+
+
+def _meta_depth(meta: Any) -> int:
+    """Nesting depth of a JSON value (iterative, so any depth is measured without recursion)."""
+    deepest, stack = 0, [(meta, 1)]
+    while stack:
+        v, d = stack.pop()
+        if isinstance(v, (dict, list)):
+            deepest = max(deepest, d)
+            if d > META_MAX_DEPTH:
+                return d
+            stack.extend((x, d + 1) for x in (v.values() if isinstance(v, dict) else v))
+    return deepest
+
+
+def validate_meta(meta: Any, file: Path | str) -> RunMeta:
     """Check metadata against META_KEYS; returns it unchanged or raises RunFileError."""
     if not isinstance(meta, dict):
         raise RunFileError(file, None, None, f"metadata must be a JSON object, got {type(meta).__name__}")
+    if _meta_depth(meta) > META_MAX_DEPTH:
+        raise RunFileError(file, None, None, f"metadata nested more than {META_MAX_DEPTH} levels deep")
     for key, value in meta.items():
         if not isinstance(key, str):
             raise RunFileError(file, None, repr(key), "metadata keys must be text")
@@ -192,18 +218,25 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(name)
 
 
-def read_meta(path: Path) -> dict[str, Any]:
+def read_meta(path: Path) -> RunMeta:
     """Read and validate a `<stem>.json` metadata file."""
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise RunFileError(path, None, None, "metadata file not found (a run is <stem>.csv or "
                            "<stem>.parquet plus <stem>.json)") from None
+    except UnicodeDecodeError as exc:
+        raise RunFileError(path, None, None, f"not UTF-8 text: {exc}") from None
+    except OSError as exc:
+        raise RunFileError(path, None, None, f"cannot read the file: {exc.strerror or exc}") from None
     try:
         meta = json.loads(text, parse_constant=_reject_constant)
     except ValueError as exc:
         line = getattr(exc, "lineno", None)
         raise RunFileError(path, None, None, f"not valid JSON: {exc}", line=line) from None
+    except RecursionError:
+        raise RunFileError(path, None, None, "not valid metadata: JSON nested too deep to read "
+                           f"(at most {META_MAX_DEPTH} levels)") from None
     return validate_meta(meta, path)
 
 
@@ -300,17 +333,49 @@ def validate_samples(df: pd.DataFrame, file: Path | str,
     return pd.DataFrame(out)
 
 
+def _check_csv_shape(path: Path) -> list[str]:
+    """The header of a CSV, after checking the file's shape as written: a header with non-empty,
+    unique names, as many cells in every row as in the header (pandas would silently turn extra
+    cells into an index or pad short rows), and a line end after the last line."""
+    with path.open("rb") as fb:
+        size = fb.seek(0, 2)
+        if size:
+            fb.seek(size - 1)
+            last = fb.read(1)
+    with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: tolerate a BOM (Excel)
+        reader = csv.reader(fh, strict=True)
+        header = next(reader, None)
+        if not header:
+            raise RunFileError(path, None, None, "empty file: no header line", line=1)
+        for c in header:
+            if not c.strip():
+                raise RunFileError(path, None, c, "empty column name", line=1)
+            if header.count(c) > 1:
+                raise RunFileError(path, None, c, "column appears more than once", line=1)
+        row = 0
+        for cells in reader:
+            if not cells:
+                continue  # a blank line, skipped as pandas does
+            row += 1
+            if len(cells) != len(header):
+                raise RunFileError(path, row, None, f"{len(cells)} cells where the header has "
+                                   f"{len(header)}", line=reader.line_num)
+    if last not in (b"\n", b"\r"):
+        raise RunFileError(path, None, None, "the last line has no line end: the file looks cut "
+                           "short (truncated)")
+    return header
+
+
 def _read_csv(path: Path) -> tuple[pd.DataFrame, int]:
     """Samples of a CSV, with the header checked as written (pandas would rename duplicates)."""
-    with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: tolerate a BOM (Excel)
-        header = next(csv.reader(fh), None)
-    if not header:
-        raise RunFileError(path, None, None, "empty file: no header line", line=1)
-    for c in header:
-        if not c.strip():
-            raise RunFileError(path, None, c, "empty column name", line=1)
-        if header.count(c) > 1:
-            raise RunFileError(path, None, c, "column appears more than once", line=1)
+    try:
+        header = _check_csv_shape(path)
+    except UnicodeDecodeError as exc:
+        raise RunFileError(path, None, None, f"not UTF-8 text: {exc}") from None
+    except csv.Error as exc:
+        raise RunFileError(path, None, None, f"malformed CSV: {exc}") from None
+    except OSError as exc:
+        raise RunFileError(path, None, None, f"cannot read the file: {exc.strerror or exc}") from None
     kwargs: dict[str, Any] = {}
     if int(pd.__version__.split(".")[0]) < 3:
         kwargs["float_precision"] = "round_trip"  # pandas 3 parses round-trip by default
