@@ -16,6 +16,29 @@ A run-format channel name (core.channels) is given where a signal is one.
 
 Missing sensor values: a REAL carries NaN; an INT/DINT carries its type's minimum
 (-32768 / -2147483648), decoded back to NaN.
+
+Homing, the paper's first step of scheme 1: "turn the joint angle to 0° according to
+the motor code disk, and set the output encoder angle to zero". A rising edge of the `home`
+command bit, while the PLC is running with no fault latched, starts it: `homing` is set and
+`homed` cleared; the PLC turns the joint (through the drives) until the motor-side angle `u`
+(the motor code disk referred to the output) is within HOME_TOLERANCE of 0, at most at
+HOME_MOTOR_SPEED, then stops the motors, zeroes the output encoder (`q` reads 0 there from
+then on), clears `homing` and sets `homed`. Homing runs only while the service holds `home`
+set: clearing it, a trip or the heartbeat watchdog aborts it (`homed` stays clear).
+
+Exceptions and unit identifier (what the stand-in in simulators/plc.py does, as MB_SERVER):
+
+- A request for a register outside the status and command blocks is answered with Modbus
+  exception 02 ILLEGAL DATA ADDRESS; a write into the status block likewise (it is read-only);
+  a bad count with 03 ILLEGAL DATA VALUE; coils and discrete inputs (not in this DB) with
+  01 ILLEGAL FUNCTION. Never silence, never a logged traceback.
+- Unit identifier: MB_SERVER does not evaluate the MBAP unit id — it serves its data block to a
+  request carrying any unit id (0–255) and echoes that id in the response. Siemens' MB_SERVER
+  description lists no unit-id parameter for the server (only MB_CLIENT has `MB_UNIT_ID`), and
+  integrators' notes on S7 Modbus quirks record that "MB_SERVER does not filter the unit ID,
+  accepts any value". The stand-in does the same, so a client configured with another unit id
+  (daq.settings `plc_device_id`) gets answers, not a timeout. Behind a gateway the unit id
+  would select a serial device; on the S7-1500's own port it selects nothing.
 """
 
 from __future__ import annotations
@@ -218,16 +241,19 @@ def _layout(name: str, start: int, access: str, rows: list[tuple]) -> Block:
 # --- the map -----------------------------------------------------------------------------
 
 STATUS_BITS = ("estop", "watchdog_fault", "safe_state", "pump_running", "cooling_on",
-               "drives_stopped", "fault_latched")
+               "drives_stopped", "fault_latched", "homing", "homed")
 """Bits of `status_bits`: e-stop latched (operator or service e-stop), service heartbeat
 watchdog tripped, PLC in its safe state, pump motor running, cooling on, PLC has stopped the
 drives (hard-wired OFF3), a fault is latched (cleared by `fault_reset` once its cause is
-gone and the heartbeat is alive)."""
+gone and the heartbeat is alive), homing in progress, homed (the output encoder was zeroed
+at 0° since the PLC started; cleared when a new homing starts)."""
 
-COMMAND_BITS = ("pump_on", "cooling_on", "estop", "fault_reset", "run")
+COMMAND_BITS = ("pump_on", "cooling_on", "estop", "fault_reset", "run", "home")
 """Bits of `command_bits`: pump motor on, cooling on, service e-stop (latches in the PLC),
 fault reset (rising edge), run request (dynamometer and pressure set points are applied only
-while `run` is set and no fault is latched)."""
+while `run` is set and no fault is latched), home request (homing, in the module doc)."""
+
+
 
 FAULT_CODES = {0: "none", 1: "service heartbeat watchdog", 2: "e-stop"}
 """Values of `fault_code` (the first latched fault)."""
@@ -242,6 +268,15 @@ DEG = math.pi / 180.0
 ENCODER_COUNT = JointParams().enc_res
 """Output encoder count [rad] (the joint's encoder resolution, core.params: 0.01°, Table 10)."""
 
+HOME_TOLERANCE = ENCODER_COUNT
+"""Homing ends when |u| is within this [rad] (one output encoder count, 0.01°)."""
+HOME_MOTOR_SPEED = 3000.0 * 2.0 * math.pi / 60.0
+"""Fastest motor speed while homing [rad/s at the motor shaft] (3000 r/min, the schemes'
+highest: 180° of output travel in about 110 s)."""
+HOME_GAIN = 2.0
+"""Homing position-loop gain [1/s]: motor speed = −N·HOME_GAIN·u, clipped to HOME_MOTOR_SPEED
+(the last degree takes about 2 s)."""
+
 STATUS_BLOCK = _layout("status", 0, "status", [
     ("plc_life", "INT", 1.0, "", "PLC life counter, +1 per PLC scan (wraps at 32767)", None),
     ("heartbeat_echo", "INT", 1.0, "", "last service heartbeat value the PLC saw", None),
@@ -252,7 +287,8 @@ STATUS_BLOCK = _layout("status", 0, "status", [
     ("valve_state", "INT", 1.0, "", f"Y-type reversing valve {VALVE_STATES}", None),
     ("rig_time", "DINT", 1e-3, "s", "rig time of this snapshot [ms] (PLC acquisition clock)",
      "t"),
-    ("q", "DINT", ENCODER_COUNT, "rad", "output encoder, counts of 0.01°", "q"),
+    ("q", "DINT", ENCODER_COUNT, "rad",
+     "output encoder, counts of 0.01° (0 at the homed position once homed)", "q"),
     ("qd", "REAL", 1.0, "rad/s", "output joint velocity", "qd"),
     ("u", "REAL", 1.0, "rad", "motor angle referred to the output", "u"),
     ("ud", "REAL", 1.0, "rad/s", "motor velocity referred to the output", "ud"),
@@ -271,7 +307,7 @@ STATUS_BLOCK = _layout("status", 0, "status", [
 
 COMMAND_BLOCK = _layout("command", 100, "command", [
     ("service_heartbeat", "INT", 1.0, "", "service watchdog counter, changed every write", None),
-    ("command_bits", "WORD", 1.0, "", "pump, cooling, e-stop, fault reset, run", None,
+    ("command_bits", "WORD", 1.0, "", "pump, cooling, e-stop, fault reset, run, home", None,
      COMMAND_BITS),
     ("valve_cmd", "INT", 1.0, "", f"Y-type reversing valve command {VALVE_STATES}", None),
     ("dyno_torque_sp", "REAL", 1e3, "N·m", "dynamometer torque set point [kN·m]", None),

@@ -80,8 +80,9 @@ class Interlocks:
         if abs(q) <= self.angle_limit:
             return None
         what = f"{math.degrees(q):.2f}°" if math.isfinite(q) else f"unknown ({q})"
-        return Trip("angle", f"output angle {what} outside ±{math.degrees(self.angle_limit):.1f}°",
-                    float(q), float(self.angle_limit))
+        limit = math.degrees(self.angle_limit)
+        return Trip("angle", f"output angle {what} outside ±{limit:.1f}°", float(q),
+                    float(self.angle_limit))
 
     def check_status(self, status: Mapping[str, float]) -> list[Trip]:
         """Trips raised by one decoded PLC status sample."""

@@ -6,6 +6,14 @@ phase label and the sample grid. Times are plan time [s] on the RIG's clock (the
 `rig_time` minus its value at the start of the run), so a plan runs the same on the real rig
 and on the emulator at any time scale.
 
+Before its time line starts, a plan homes the joint (`homing`, run by the engine through
+daq/rig.py): scheme 1 as the paper's first step ("turn the joint angle to 0° ... and set the
+output encoder angle to zero"), scheme 2 because its travel check (core/schemes.py: a
+3000 r/min run turns ~164° of the ±180°) holds only from 0° — after a scheme-1 run at
+3000 r/min the joint stands at ~167° and would pass 180° (the absolute-angle interlock would
+trip) — and scheme 3 because its trajectory is absolute, about the homed 0°. A plan also names the interlock limit
+set it runs under (its scheme's `limit_set`, core/schemes.py).
+
 Scheme 3 runs in position control the way a motion controller does: the speed set point is
 the trajectory's speed feed-forward N·q̇_ref plus a proportional correction
 N·k_p·(q_ref − q) from the measured output angle q, clipped to the speed limit.
@@ -20,7 +28,11 @@ from typing import Any
 import numpy as np
 
 from core.params import REDUCTION
-from core.schemes import RPM, Scheme1, Scheme2, Scheme3, make_scheme
+from core.schemes import (RPM, LimitSet, Scheme1, Scheme2, Scheme3, limit_set_named,
+                          make_scheme)
+
+HOMING_SCHEMES = (1, 2, 3)
+"""Schemes whose plan homes the joint before its time line starts (module doc)."""
 
 
 @dataclass(frozen=True)
@@ -48,6 +60,10 @@ class Plan:
         self.duration = float(scheme.duration())
         """Length of the run [s of rig time]."""
         self.sample_rate_hz = float(scheme.sample_rate_hz)
+        self.homing = self.number in HOMING_SCHEMES
+        """Home the joint before plan time 0."""
+        self.limits: LimitSet = limit_set_named(getattr(scheme, "limit_set", "default"))
+        """The interlock limits the run is held to."""
         self.position_control = isinstance(scheme, Scheme3)
         if self.position_control:
             self.position_gain = float(scheme.position_gain)
@@ -121,5 +137,6 @@ class Plan:
         m["plan"] = {"name": self.name, "duration_s": self.duration,
                      "n_samples_planned": self.n_samples(),
                      "position_control": self.position_control,
-                     "uses_hydraulics": self.uses_hydraulics}
+                     "uses_hydraulics": self.uses_hydraulics,
+                     "homing": self.homing, "limit_set": self.limits.name}
         return m

@@ -14,6 +14,11 @@ What it does while running:
 - records everything that interrupts acquisition in `events` (data, not log lines): PLC link
   gaps with their start and end, drive drops, trips, make-safe steps and their outcome.
 
+Homing (`home`): the PLC turns the joint to 0° by the motor code disk and zeroes the output
+encoder (core/plc_map.py); the absolute-angle interlock then watches ±180° on that encoder.
+The interlock limits follow a limit set (`use_limits`, core/schemes.py LIMIT_SETS), "default"
+until a plan names another.
+
 Policy: a lost or faulted drive is dropped and the joint continues on the others (the rig's
 designed redundancy); a second lost drive, a lost PLC link, any interlock trip or an e-stop
 makes the rig safe — dynamometer to zero, drives quick-stop, hydraulics to `safe_pressure` —
@@ -31,6 +36,9 @@ from array import array
 from dataclasses import dataclass, field
 from typing import Any, AsyncIterator
 
+from core.plc_map import HOME_GAIN, HOME_MOTOR_SPEED
+from core.params import REDUCTION
+from core.schemes import LimitSet
 from daq.drives import DriveError, DriveEvent, DriveMaster
 from daq.interlocks import Interlocks, Trip
 from daq.plc import PlcClient, PlcError, PlcLinkError
@@ -225,6 +233,71 @@ class Rig:
             raise RuntimeError("no drives configured (settings.node_ids is empty)")
         self.drives.set_speed(w)
 
+    # --- limits and homing -------------------------------------------------------------------
+
+    def use_limits(self, limit_set: LimitSet) -> None:
+        """Hold the rig to `limit_set` from now on (recorded as an event)."""
+        self.interlocks = Interlocks(self.settings, limit_set)
+        self.record("rig", "limits", f"limit set {limit_set.name!r}: {limit_set.purpose}",
+                    **self.interlocks.describe())
+
+    @staticmethod
+    def homing_time(u: float) -> float:
+        """Rig time [s] the PLC's homing may take from the motor-side angle u [rad]: the
+        travel at HOME_MOTOR_SPEED plus the proportional approach (ln 100 / HOME_GAIN, taken
+        as 10 / HOME_GAIN), doubled for margin."""
+        v = HOME_MOTOR_SPEED / REDUCTION
+        return 2.0 * (abs(u) / v + 10.0 / HOME_GAIN)
+
+    async def home(self, time_scale: float = 1.0, slack: float = 5.0,
+                   poll: float = 0.02) -> dict[str, Any]:
+        """Home the joint (core/plc_map.py): drives' speed set point 0, then the PLC's `home`
+        request held until it reports `homed`. The interlocks stay armed throughout; a trip
+        stops it (RigSafeError). Past homing_time(u)/time_scale + slack [s of wall time;
+        time_scale in rig s per wall s] the rig is made safe with the trip `homing`.
+        Returns the angles before and after [rad] and the wall time taken [s]."""
+        self._check_not_safe()
+        sb = self.plc_client.map.signals["status_bits"]
+        if self.drives is not None:
+            await self.set_motor_speed(0.0)  # the PLC moves the joint; no other set point
+        try:
+            before = await self.plc_client.read_status()
+        except PlcLinkError:
+            if self.last_status is None:
+                raise
+            before = self.last_status  # the poll loop's latest: the joint has not moved since
+        u0 = before["u"] if math.isfinite(before["u"]) else math.pi
+        timeout = self.homing_time(u0) / time_scale + slack
+        self.record("rig", "homing", f"homing from q {before['q']:.5f} rad, "
+                                     f"u {before['u']:.5f} rad")
+        t0 = time.monotonic()
+        await self.plc_client.set_command_bits(home=False)  # a rising edge starts it
+        await self.plc_client.set_command_bits(home=True)
+        st = before
+        try:
+            while True:
+                await asyncio.sleep(poll)
+                self._check_not_safe()
+                if time.monotonic() - t0 > timeout:
+                    await self.trip(Trip("homing", f"not homed within {timeout:.1f} s "
+                                                   f"(u {st['u']:.5f} rad)", st["u"], timeout))
+                    self._check_not_safe()
+                try:
+                    st = await self.plc_client.read_status()  # after the request: never stale
+                except PlcLinkError:
+                    continue  # a late answer; a lost link trips plc_link in the poll loop
+                bits = int(st["status_bits"])
+                if bits & sb.bit("homed") and not bits & sb.bit("homing"):
+                    break
+        finally:
+            with contextlib.suppress(PlcLinkError, PlcError):
+                await self.plc_client.set_command_bits(home=False)
+        out = {"q_before": before["q"], "u_before": before["u"], "q_after": st["q"],
+               "u_after": st["u"], "wall_s": time.monotonic() - t0}
+        self.record("rig", "homed", f"homed in {out['wall_s']:.2f} s: output encoder zeroed "
+                                    f"at u {st['u']:.5f} rad", **out)
+        return out
+
     # --- safety ---------------------------------------------------------------------------
 
     async def estop(self, reason: str = "operator") -> None:
@@ -260,10 +333,13 @@ class Rig:
 
     async def _plc_safe_commands(self) -> str:
         try:
-            await self.plc_client.write_commands({"dyno_torque_sp": 0.0,
-                                                  "pressure_sp": self.settings.safe_pressure})
+            c = self.plc_client
+            sig = c.map.signals["command_bits"]
+            word = int(sig.decode(c.command_regs[sig.address - c.map.command.start:][:1]))
+            await c.write_commands({"dyno_torque_sp": 0.0, "command_bits": word & ~sig.bit("home"),
+                                    "pressure_sp": self.settings.safe_pressure})
             return "dynamometer 0 N·m, pressure set point " \
-                   f"{self.settings.safe_pressure:g} Pa written"
+                   f"{self.settings.safe_pressure:g} Pa and no home request written"
         except (PlcLinkError, PlcError) as exc:
             return f"not reachable ({exc}); the PLC's own watchdog makes it safe"
         except Exception as exc:  # noqa: BLE001

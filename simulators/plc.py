@@ -6,7 +6,10 @@
   read and applies the command block to the emulator on every write.
 - `PlcProgram` is what the real PLC program does on its own, scanned every few ms: the
   service-heartbeat watchdog (no change for `watchdog_s`, default 0.5 s → ramp the
-  dynamometer to zero, stop the drives, latch a fault bit), the e-stop latch and fault reset.
+  dynamometer to zero, stop the drives, latch a fault bit), the e-stop latch and fault reset,
+  and homing (core/plc_map.py's module doc): it turns the joint to u = 0 by setting the
+  motors' speeds itself, as the real PLC commands the S120 drives, then zeroes the output
+  encoder — the status block's `q` is the emulator's angle minus that zero.
 - Malformed or over-long requests get Modbus exception responses (FC 3/4/23 counts are
   checked here: pymodbus would otherwise answer them with function code 0x80); the server
   never crashes on them.
@@ -31,7 +34,9 @@ from pymodbus.pdu.register_message import (ReadHoldingRegistersRequest,
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from core.plc_map import MAX_READ_REGISTERS, REGISTER_MAP, RegisterMap
+from core.params import N_MOTORS, REDUCTION
+from core.plc_map import (HOME_GAIN, HOME_MOTOR_SPEED, HOME_TOLERANCE, MAX_READ_REGISTERS,
+                          REGISTER_MAP, RegisterMap)
 
 MODE_STARTUP, MODE_RUN, MODE_SAFE = 0, 1, 2
 FAULT_NONE, FAULT_WATCHDOG, FAULT_ESTOP = 0, 1, 2
@@ -60,6 +65,8 @@ class PlcProgram:
         self.lock = lock
         self.map = regmap
         self.watchdog_s = float(watchdog_s)
+        if not 0.0 < self.watchdog_s <= 60.0:
+            raise ValueError(f"PLC watchdog must be in (0, 60] s, got {watchdog_s!r}")
         self.ramp_rate = float(ramp_rate)
         """Dynamometer ramp-down rate in the safe state [N·m per second of rig time]."""
         self.p_max = float(p_max)
@@ -84,6 +91,12 @@ class PlcProgram:
         self.valve_state = 0
         self._last_scan_t: float | None = None
         self._prev_reset = False
+        self.homing = False
+        self.homed = False
+        self.encoder_zero = 0.0
+        """Output encoder zero [rad of the emulator's angle], set by homing."""
+        self._prev_home = False
+        self._home_requested = False
         self.events: list[tuple[float, str]] = []
         """(wall time, text) of every trip and reset (also passed to `on_event`)."""
 
@@ -121,6 +134,15 @@ class PlcProgram:
         if reset and not self._prev_reset:
             self._fault_reset(now)
         self._prev_reset = reset
+        home = bool(bits & cb.bit("home"))
+        if home and not self._prev_home:
+            self._home_requested = True   # started by the next scan that finds the PLC running
+            self._start_homing()
+        elif not home:
+            self._home_requested = False
+            if self.homing:
+                self._stop_homing("homing aborted: home request cleared")
+        self._prev_home = home
         self.cooling_on = bool(bits & cb.bit("cooling_on"))
         self.valve_state = int(vals["valve_cmd"])
         self._apply_outputs()
@@ -135,10 +157,61 @@ class PlcProgram:
                 and self.fault_code == FAULT_NONE:
             self.mode = MODE_RUN
         if self.mode == MODE_RUN and self.last_heartbeat_change is not None \
-                and now - self.last_heartbeat_change > self.watchdog_s:
+                and not now - self.last_heartbeat_change <= self.watchdog_s:  # NaN trips
             self._trip(FAULT_WATCHDOG, f"service heartbeat unchanged for "
                                        f"{now - self.last_heartbeat_change:.3f} s")
+        if self._home_requested and not self.homing:
+            self._start_homing()
+        if self.homing:
+            self._home_step()
         self._apply_outputs()
+
+    # --- homing -------------------------------------------------------------------------
+
+    def _start_homing(self) -> None:
+        """Start a requested homing once the PLC runs (a request made during start-up waits
+        for it); refused in the safe state or with a fault latched."""
+        if self.mode == MODE_STARTUP and self.fault_code == FAULT_NONE:
+            return
+        self._home_requested = False
+        if self.mode != MODE_RUN or self.fault_code != FAULT_NONE:
+            self._note("homing refused: the PLC is in its safe state or a fault is latched")
+            return
+        self.homing, self.homed = True, False
+        self._note("homing started")
+
+    def _stop_homing(self, why: str) -> None:
+        """End homing without zeroing the encoder: the motors are told to stand still (a trip
+        has already stopped the drives; their own ramps then take over)."""
+        self.homing = False
+        if self.mode == MODE_RUN:
+            self._set_motor_speeds(0.0)
+        self._note(why)
+
+    def _set_motor_speeds(self, w: float) -> None:
+        with self.lock:
+            for k in range(N_MOTORS):
+                self.live.set_motor_speed(k, w)
+
+    def _home_step(self) -> None:
+        """One scan of homing: a proportional position loop on the motor code disk's angle u
+        (referred to the output); at |u| ≤ HOME_TOLERANCE stop and zero the output encoder."""
+        if self.mode != MODE_RUN:
+            self._stop_homing("homing aborted: the PLC made the rig safe")
+            return
+        with self.lock:
+            r = self.live.read()
+        u, q = r.get("u", math.nan), r.get("q", math.nan)
+        if not (math.isfinite(u) and math.isfinite(q)):
+            return  # a missing reading: wait for the next scan
+        if abs(u) <= HOME_TOLERANCE:
+            self._set_motor_speeds(0.0)
+            self.encoder_zero = q
+            self.homing, self.homed = False, True
+            self._note(f"homed: u {u:.6f} rad, output encoder zeroed at {q:.6f} rad")
+            return
+        w = -REDUCTION * HOME_GAIN * u
+        self._set_motor_speeds(max(-HOME_MOTOR_SPEED, min(HOME_MOTOR_SPEED, w)))
 
     def _trip(self, code: int, why: str) -> None:
         if code == FAULT_ESTOP:
@@ -148,6 +221,8 @@ class PlcProgram:
         if self.fault_code == FAULT_NONE:
             self.fault_code = code
         self.mode = MODE_SAFE
+        if self.homing:
+            self._stop_homing("homing aborted: the PLC made the rig safe")
         self._note(f"trip: {why}")
         if not self.drives_stopped:
             self.drives_stopped = True
@@ -211,7 +286,8 @@ class PlcProgram:
         for name, on in (("estop", self.estop), ("watchdog_fault", self.watchdog_fault),
                          ("safe_state", self.mode == MODE_SAFE), ("pump_running", self.pump_on),
                          ("cooling_on", self.cooling_on), ("drives_stopped", self.drives_stopped),
-                         ("fault_latched", self.fault_code != FAULT_NONE)):
+                         ("fault_latched", self.fault_code != FAULT_NONE),
+                         ("homing", self.homing), ("homed", self.homed)):
             if on:
                 bits |= sb.bit(name)
         out: dict[str, float] = {
@@ -227,6 +303,7 @@ class PlcProgram:
         for s in self.map.status.signals:
             if s.channel is not None and s.name not in out:
                 out[s.name] = t if s.channel == "t" else float(r.get(s.channel, math.nan))
+        out["q"] -= self.encoder_zero
         return out
 
     def status_registers(self) -> list[int]:
@@ -286,9 +363,16 @@ _READ_FCS = (3, 4, 23)
 _WRITE_FCS = (6, 16, 23)
 
 
-def build_device(program: PlcProgram, device_id: int = 1) -> SimDevice:
+ANY_UNIT_ID = 0
+"""pymodbus' SimCore serves a request whose unit id has no device of its own from device 0:
+the stand-in's one device has id 0, so it answers every unit id as MB_SERVER does
+(core/plc_map.py, "Unit identifier")."""
+
+
+def build_device(program: PlcProgram, device_id: int = ANY_UNIT_ID) -> SimDevice:
     """The SimDevice of the MB_SERVER DB: status block read-only, command block writable,
-    everything else invalid (ILLEGAL DATA ADDRESS). Its action hook ties it to `program`."""
+    everything else invalid (ILLEGAL DATA ADDRESS). Its action hook ties it to `program`.
+    `device_id` ANY_UNIT_ID (the default) answers requests of every unit id."""
     m = program.map
 
     async def action(function_code: int, start_address: int, address: int, count: int,
@@ -328,7 +412,7 @@ class PlcServer:
     """The Modbus TCP server plus the PLC scan task, in the caller's asyncio loop."""
 
     def __init__(self, program: PlcProgram, host: str = "127.0.0.1", port: int = 5020,
-                 *, scan_period: float = 0.005, device_id: int = 1) -> None:
+                 *, scan_period: float = 0.005, device_id: int = ANY_UNIT_ID) -> None:
         self.program = program
         self.host = host
         self.port = port

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from core.acceptance import acceptance, format_table, is_loading_run
 from core.params import JointParams
@@ -33,7 +34,12 @@ def loading_run(n: int = 2000, torque_err: float = 500.0, shear_err: float = 300
 
 
 def by_name(run):
-    return {i.channel: i for i in acceptance(run)}
+    """The error indicators (items 4-6) by channel."""
+    return {i.channel: i for i in acceptance(run) if i.kind == "error"}
+
+
+def by_item(run):
+    return {i.item: i for i in acceptance(run)}
 
 
 def test_pass_with_errors_inside_tolerance():
@@ -90,3 +96,72 @@ def test_not_a_loading_run_and_absent_channels():
     assert ind["m_bend"].passed is None and ind["torque_load"].passed is None
     assert "torque_cmd" in ind["torque_load"].note
     assert ind["f_shear"].passed is True
+
+
+def ramp_run(top_cmd: float, top_load: float | None = None, meta: dict | None = None) -> RunData:
+    """A loading run whose torque set point ramps 0 → top_cmd → 0 [N·m] and whose measured
+    load follows it up to top_load (a dynamometer that saturates there)."""
+    t = np.arange(3000) * 0.1
+    cmd = np.interp(t, [0, 10, 150, 290, 300], [0, 0, top_cmd, 0, 0])
+    load = np.minimum(cmd, top_cmd if top_load is None else top_load) + 300.0 * np.sin(t)
+    phase = np.where((t >= 10) & (t < 290), "load", "idle").astype(object)
+    df = pd.DataFrame({"t": t, "torque_cmd": cmd, "torque_load": load,
+                       "f_shear": np.where(phase == "load", 90e3, 0.0) + 200.0 * np.cos(t),
+                       "m_bend": np.where(phase == "load", 225e3, 0.0) + 200.0 * np.cos(t),
+                       "phase": pd.Series(phase, dtype=object)})
+    return RunData(samples=df, meta={"scheme": 1, **(meta or {})})
+
+
+def test_all_six_table_11_items_in_order():
+    inds = acceptance(loading_run())
+    assert [i.item for i in inds] == [5, 4, 6, 1, 2, 3]
+    assert [i.kind for i in inds] == ["error"] * 3 + ["range", "range", "value"]
+    assert [i.name for i in inds[3:]] == ["torque loading range", "bending moment loading range",
+                                          "shear loading value"]
+    table = format_table(inds)
+    for i in inds:
+        assert i.name in table
+    run = loading_run()
+    run.meta["scheme"] = 3
+    assert [i.status for i in acceptance(run)] == ["not judged"] * 6
+
+
+def test_a_rated_load_run_does_not_show_the_ranges_and_says_so():
+    ind = by_item(ramp_run(120e3))
+    torque_range, bend_range, shear_value = ind[1], ind[2], ind[3]
+    assert torque_range.status == "not met" and torque_range.passed is None
+    assert torque_range.reached == pytest.approx(120e3, abs=400.0)
+    assert torque_range.note.startswith("reached 1") and "not a test" in torque_range.note
+    assert bend_range.status == "not met" and bend_range.reached == pytest.approx(225e3, abs=300)
+    assert shear_value.passed is True and shear_value.status == "pass"
+    assert ind[5].passed is True                          # its loading error is fine
+
+
+def test_a_range_test_shows_the_torque_range_or_fails_it():
+    ind = by_item(ramp_run(180e3))
+    assert ind[1].passed is True and ind[1].status == "pass"
+    assert ind[1].reached == pytest.approx(180e3, abs=400.0)
+    assert "PASS (reached 1" in format_table(acceptance(ramp_run(180e3))).splitlines()[4]
+    # aimed at 180 kN·m, the load stopped at 170: item 1 fails (and so does the error)
+    short = by_item(ramp_run(180e3, top_load=170e3))
+    assert short[1].passed is False and short[1].status == "fail"
+    assert "torque set point up to 180" in short[1].note
+    assert short[5].passed is False
+
+
+def test_unmeasured_items_are_not_invented():
+    run = ramp_run(180e3)
+    run.samples = run.samples.drop(columns=["m_bend"])
+    ind = by_item(run)
+    assert ind[2].status == "not measured" and ind[2].passed is None and ind[2].reached is None
+    assert "no m_bend channel" in ind[2].note
+    run.samples["f_shear"] = np.nan
+    assert by_item(run)[3].status == "not measured"
+
+
+def test_shear_set_point_from_the_scheme_parameters():
+    run = ramp_run(120e3, meta={"scheme_params": {"shear_target": 50e3}})
+    run.samples["f_shear"] = np.where(run.samples["phase"] == "load", 50e3, 0.0)
+    ind = by_item(run)
+    assert ind[6].setpoint == "50000 N" and ind[6].passed is True
+    assert ind[3].status == "not met" and "shear set point 50 kN" in ind[3].note

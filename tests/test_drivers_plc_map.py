@@ -112,3 +112,13 @@ def test_describe_lists_every_signal():
     rows = REGISTER_MAP.describe()
     assert {r["name"] for r in rows} == set(REGISTER_MAP.signals)
     assert all(r["word_order"] == "big" for r in rows)
+
+
+def test_homing_bits_extend_the_words_without_moving_a_register():
+    sb, cb = REGISTER_MAP.signals["status_bits"], REGISTER_MAP.signals["command_bits"]
+    assert cb.bit("home") == 1 << 5
+    assert sb.bit("homing") == 1 << 7 and sb.bit("homed") == 1 << 8
+    # the earlier bits and every address stay where the PLC program has them
+    assert sb.bit("fault_latched") == 1 << 6 and cb.bit("run") == 1 << 4
+    assert (REGISTER_MAP.status.count, REGISTER_MAP.command.count) == (35, 7)
+    assert REGISTER_MAP.signals["q"].address == 9

@@ -237,3 +237,22 @@ def test_plc_killed_and_restarted_reconnect_gap_recorded_nothing_lost():
         asyncio.run(body())
     finally:
         sp.stop()
+
+
+def test_homing_over_modbus_zeroes_the_encoder_and_reports_homed(plc_only):
+    """`rig emulate`'s PLC serves the map's `home` command: Rig.home sets it, the PLC reports
+    `homing` then `homed`, and the status block's q reads the homed zero."""
+    async def body():
+        rig = Rig(Settings(plc_port=plc_only.plc_port, node_ids=()))
+        async with rig.session():
+            st = await rig.plc_client.read_status()
+            assert not int(st["status_bits"]) & (SB.bit("homed") | SB.bit("homing"))
+            out = await rig.home(time_scale=1.0)
+            st = await rig.plc_client.read_status()
+            assert int(st["status_bits"]) & SB.bit("homed")
+            assert not int(st["status_bits"]) & SB.bit("homing")
+            assert abs(st["q"]) <= 2 * math.radians(0.01) and abs(out["u_after"]) < 1e-3
+            cmd = await rig.plc_client.read_commands()
+            assert not int(cmd["command_bits"]) & CB.bit("home")
+        assert not rig.trips
+    asyncio.run(body())
