@@ -58,7 +58,7 @@ async def _too_large(send, max_bytes: int) -> None:
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The FastAPI application on `settings` (default Settings.from_env())."""
-    from api.routers import jobs, reports, runs, schemes, tokens
+    from api.routers import console, health, jobs, reports, rig_model, runs, schemes, tokens
 
     st = settings or Settings.from_env()
 
@@ -71,7 +71,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.store = Store(st.db_url)
         recover_lost(app.state.store, st.job_stale_s, st.job_max_attempts)
         env = {"RIG_DASK_SCHEDULER": st.dask_scheduler} if st.dask_scheduler else None
-        pool = WorkerPool(st.db_url, st.workers, env=env).start() if st.workers > 0 else None
+        pool = WorkerPool(st.db_url, st.workers, env=env, max_attempts=st.job_max_attempts
+                          ).start() if st.workers > 0 else None
         app.state.workers = pool
         try:
             yield
@@ -81,11 +82,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             app.state.store.close()
 
     app = FastAPI(title="J4 joint test platform", version="0.1.0", lifespan=lifespan,
+                  docs_url=None, redoc_url=None,   # served offline by api/routers/console.py
                   description="Stored runs, identification and sensitivity jobs, test reports. "
                               "Every endpoint needs `Authorization: Bearer TOKEN` "
-                              "(`rig token create --role viewer|operator|admin`).")
+                              "(`rig token create --role viewer|operator|rig-operator|admin`).")
     app.state.settings = st
-    for r in (runs.router, jobs.router, reports.router, tokens.router, schemes.router):
+    for r in (runs.router, jobs.router, reports.router, tokens.router, schemes.router,
+              health.router, rig_model.router, console.router, console.page_router):
         app.include_router(r)
     app.add_middleware(BodyLimit, max_bytes=st.max_body_bytes)
     return app

@@ -1,6 +1,11 @@
 """The job kinds: what a job of each kind accepts (a pydantic model, checked at submission) and
 the function a worker runs for it. Adding a kind (e.g. sim-to-real diagnosis) is one entry in
-KINDS. A kind's `run(store, params, progress)` returns the results to store (one per fit)."""
+KINDS. A kind's `run(store, params, progress)` returns the results to store (one per fit).
+
+Each kind has a wall-clock limit (`time_limit_s`): a job running longer is stopped and ends
+'failed' with the limit in its reason (api.worker; a job that does not stop by itself is ended
+with its worker process). The limits bound what the parameter bounds allow on a busy 2-core
+machine with room to spare; `RIG_JOB_TIME_LIMIT_S` (api.settings) overrides them all."""
 
 from __future__ import annotations
 
@@ -21,6 +26,10 @@ Progress = Callable[[float], None]
 
 class JobCancelled(Exception):
     """The job was cancelled while it ran: its results are discarded."""
+
+
+class JobTimeLimit(Exception):
+    """The job ran past its kind's wall-clock limit: it ends 'failed' with this reason."""
 
 
 @dataclass
@@ -208,23 +217,61 @@ def run_diagnosis(store, params: DiagnosisParams, progress: Progress) -> list[St
     return out
 
 
+class ReproductionParams(BaseModel):
+    """The paper reproduced on the emulator (api.paper_reproduction, as `rig reproduce`): its
+    campaign simulated in the job, the fits stored as results, the report as their
+    'reproduction' document."""
+    model_config = ConfigDict(extra="forbid")
+    quick: bool = Field(False, description="short campaign and chains: a pipeline check")
+    seed: int = Field(1, ge=0, le=2**31 - 1)
+
+
+def run_reproduction(store, params: ReproductionParams, progress: Progress
+                     ) -> list[StoredResult]:
+    """Every fit of the reproduction as a result (no stored runs: the campaign is simulated in
+    the job), the report stored with the first."""
+    from api.paper_reproduction import Settings, reproduce
+
+    report, fits = reproduce(Settings(quick=params.quick, seed=params.seed),
+                             progress=lambda x: progress(0.05 + 0.9 * x))
+    return [StoredResult(fit=f, documents={"reproduction": report} if k == 0 else {})
+            for k, f in enumerate(fits)]
+
+
 @dataclass(frozen=True)
 class JobKind:
     name: str
     params: type[BaseModel]
     run: Callable[[Any, Any, Progress], list[StoredResult]]
     description: str
+    time_limit_s: float
+    """Wall-clock limit of one attempt of a job of this kind [s]."""
 
 
 KINDS: dict[str, JobKind] = {k.name: k for k in (
     JobKind("identification", IdentificationParams, run_identification,
-            "identify a joint model (eq4, eq5, eq9, eq11 [+effects]) by ls, exact, mh or sghmc"),
+            "identify a joint model (eq4, eq5, eq9, eq11 [+effects]) by ls, exact, mh or sghmc",
+            time_limit_s=7200.0),
     JobKind("sensitivity", SensitivityParams, run_sensitivity,
-            "Sobol indices of a linear model's output over its posterior"),
+            "Sobol indices of a linear model's output over its posterior",
+            time_limit_s=7200.0),
     JobKind("diagnosis", DiagnosisParams, run_diagnosis,
             "sim-to-real gap diagnosis: where the nominal model's residual lies, which effect "
-            "explains it, how far the held-out error shrinks"),
+            "explains it, how far the held-out error shrinks",
+            time_limit_s=3600.0),
+    JobKind("reproduction", ReproductionParams, run_reproduction,
+            "the paper's tables and figures reproduced on the emulator, next to the paper's "
+            "values", time_limit_s=7200.0),
 )}
+
+
+def time_limit_s(kind: str, override_s: float | None = None) -> float | None:
+    """The wall-clock limit of a job of `kind` [s]: `override_s` (the RIG_JOB_TIME_LIMIT_S
+    setting) when given, else the kind's own; None for a kind not registered here."""
+    k = KINDS.get(kind)
+    if k is None:
+        return None
+    return k.time_limit_s if override_s is None else float(override_s)
 
 
 def run_ids_of(params: BaseModel) -> list[int]:

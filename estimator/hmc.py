@@ -33,6 +33,7 @@ from typing import Callable
 
 import numpy as np
 
+from estimator import stopping
 from estimator.mh import SamplerOutput
 
 LogpGrad = Callable[[np.ndarray], tuple[float, np.ndarray]]
@@ -88,8 +89,10 @@ def _warmup_windows(n_warmup: int) -> list[tuple[int, int]]:
 
 class _Chain:
     def __init__(self, logp_grad: LogpGrad, x0: np.ndarray, rng: np.random.Generator,
-                 max_energy_error: float, max_leapfrog: int):
+                 max_energy_error: float, max_leapfrog: int,
+                 stop: stopping.StopCheck | None = None):
         self.f = logp_grad
+        self.stop = stop or stopping.current()   # polled every leapfrog step (stopping.py)
         self.x = np.array(x0, dtype=float)
         self.lp, self.g = logp_grad(self.x)
         if not np.isfinite(self.lp):
@@ -120,6 +123,7 @@ class _Chain:
         mom = mom + 0.5 * eps * g
         divergent = False
         for i in range(n_steps):
+            self.stop()
             with np.errstate(over="ignore", invalid="ignore"):
                 x = x + eps * (self.cov @ mom)
             lp, g = self.f(x)
@@ -234,10 +238,11 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
     at_floor = np.zeros(n_chains, dtype=int)
     warm_grad = np.zeros(n_chains, dtype=int)
     windows = _warmup_windows(n_warmup)
+    stop = stopping.current()         # taken here: chains in threads poll the caller's check
 
     def run_chain(c: int) -> tuple[float, float]:
         t0 = time.perf_counter()
-        ch = _Chain(logp_grad, x0[c], rngs[c], max_energy_error, max_leapfrog)
+        ch = _Chain(logp_grad, x0[c], rngs[c], max_energy_error, max_leapfrog, stop)
         start_metric = init_metric if init_metric is not None else curvature_metric(
             logp_grad, x0[c])
         if start_metric is not None:

@@ -17,6 +17,8 @@ from typing import Callable
 
 import numpy as np
 
+from estimator import stopping
+
 
 @dataclass
 class SamplerOutput:
@@ -78,8 +80,10 @@ def metropolis_hastings(logp: Callable[[np.ndarray], float], x0: np.ndarray, n_d
     warm = np.empty((chains, n_warmup, d))
     accepted = np.zeros(chains)
     n_eval = 0
+    stop = stopping.current()
     t0 = time.perf_counter()
     for t in range(total):
+        stop()
         step = np.sqrt(np.exp(log_lam))
         prop = x + step * (rng.standard_normal((chains, d)) @ chol.T)
         logu = np.log(rng.random(chains))

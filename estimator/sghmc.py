@@ -58,6 +58,7 @@ import numpy as np
 from scipy.linalg import solve_discrete_lyapunov
 from scipy.optimize import minimize_scalar
 
+from estimator import stopping
 from estimator.mh import SamplerOutput
 
 MAX_STEP = 0.05
@@ -317,11 +318,13 @@ def sghmc(grad_u: Callable[[np.ndarray, np.ndarray], np.ndarray], n_data: int, x
     total = n_warmup + n_draws
     draws = np.empty((chains, n_draws, d))
     LT = L.T
+    stop = stopping.current()
     for c in range(chains):
         th = x0[c].copy()
         v = np.sqrt(eps) * rng.standard_normal(d)
         xi = rng.standard_normal((total, d)) @ Lq.T
         for t in range(total):
+            stop()
             idx = all_rows if full_batch else rng.integers(0, n_data, b)
             g = grad_u(th, idx)
             v = (1.0 - alpha) * v - eps * (LT @ g) + xi[t]

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from core.terms import eq4_regressor, eq11_regressor
+from estimator import stopping
 
 Model = Callable[[np.ndarray], np.ndarray]
 """Vectorised model: parameter rows (M, p) -> outputs (M,) or (M, T)."""
@@ -91,10 +92,10 @@ def evaluate_chunks(model: Model, design: SobolDesign, chunk_size: int = 4096,
                     map_fn: Callable | None = None) -> np.ndarray:
     """Evaluate a vectorised model over the design in row blocks of `chunk_size` (bounded
     memory); returns (M,) or (M, T). map_fn: a `map`-like callable, map_fn(model, blocks) ->
-    outputs in order, that evaluates the blocks elsewhere (e.g. on a cluster); default builtin
-    `map`, here one after another."""
+    outputs in order, that evaluates the blocks elsewhere (e.g. on a cluster); default here one
+    after another, polling the stop check (estimator.stopping) before each block."""
     chunks = list(design_chunks(design, chunk_size))
-    outputs = (map_fn or map)(model, [rows for _, rows in chunks])
+    outputs = (map_fn or _polling_map)(model, [rows for _, rows in chunks])
     out = None
     for (sl, _), y in zip(chunks, outputs, strict=True):
         y = np.asarray(y, dtype=float)
@@ -102,6 +103,14 @@ def evaluate_chunks(model: Model, design: SobolDesign, chunk_size: int = 4096,
             out = np.empty((design.X.shape[0],) + y.shape[1:])
         out[sl] = y
     return out
+
+
+def _polling_map(fn: Callable, items: list) -> Iterator:
+    """Builtin `map` with the stop check polled before each item."""
+    stop = stopping.current()
+    for item in items:
+        stop()
+        yield fn(item)
 
 
 def sobol_analyze(design: SobolDesign, Y: np.ndarray, num_resamples: int = 100,
@@ -136,6 +145,7 @@ def sobol_analyze(design: SobolDesign, Y: np.ndarray, num_resamples: int = 100,
     ST = np.empty((idx.size, p))
     STc = np.empty((idx.size, p))
     for k, t in enumerate(idx):
+        stopping.poll()
         si = sobol_analyze_.analyze(design.problem, Y[:, t], calc_second_order=False,
                                     num_resamples=num_resamples, conf_level=conf_level,
                                     seed=seed)

@@ -140,3 +140,28 @@ def test_rig_run_json_events_report_a_refused_spec_as_one_event(tmp_path, capsys
     assert "motor speed must be in" in events[0]["reason"] and events[0]["run_id"] is None
     assert "motor speed must be in" in err
     assert not (tmp_path / "x.sqlite").exists()
+
+
+def test_job_workers_get_the_database_url_by_environment_not_argv(tmp_path):
+    """The service's worker pool passes the database URL (a PostgreSQL URL holds its password)
+    in the workers' environment only: /proc/<pid>/cmdline, which any local user can read, never
+    holds it."""
+    import sys
+    import time
+
+    from api.worker import WorkerPool
+
+    url = f"sqlite:///{tmp_path / 'marker-s3cret.sqlite'}"
+    pool = WorkerPool(url, 1, command=[sys.executable, "-c", "import time; time.sleep(60)"])
+    pool.start()
+    try:
+        deadline = time.monotonic() + 30
+        while not pool.procs and time.monotonic() < deadline:
+            time.sleep(0.05)
+        pid = pool.procs[0].pid
+        cmdline = open(f"/proc/{pid}/cmdline", "rb").read()
+        environ = open(f"/proc/{pid}/environ", "rb").read()
+        assert b"marker-s3cret" not in cmdline, cmdline
+        assert b"RIG_DB_URL=" + url.encode() in environ.split(b"\0")
+    finally:
+        pool.stop(timeout_s=5)

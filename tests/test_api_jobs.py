@@ -1,7 +1,10 @@
 """/jobs through HTTP and the durable queue: 202 + Location, Idempotency-Key, validation,
 cancel, atomic claims across processes, a job run by a worker (results in SQL linked to their
 runs, equal to a direct estimator call), a job that raises ends 'failed', the whole path with a
-real worker process through to the job report, and a worker killed mid-job."""
+real worker process through to the job report, a worker killed mid-job (restarted by the
+service's pool, the job re-queued and completed) and a service restarted after its worker died
+unseen (the job re-queued at start-up). Crashing, stuck and cancelled jobs under supervision:
+tests/test_api_job_supervision.py."""
 
 from __future__ import annotations
 
@@ -178,6 +181,30 @@ def test_whole_path_with_a_worker_process_to_the_job_report(api):
 
 
 @pytest.mark.slow
+def test_worker_killed_mid_job_is_restarted_and_the_job_completes(api):
+    from fastapi.testclient import TestClient
+
+    from api.app import create_app
+    from api.settings import Settings
+
+    st = Settings(db_url=api.url, workers=1, max_body_bytes=64 * 1024)
+    with TestClient(create_app(st)) as client:
+        r = client.post("/jobs", json=ident(api, method="mh", options={"draws": 12000}),
+                        headers=api.h("operator"))
+        jid = r.json()["id"]
+        wait_state(api, jid, ("running",), min_progress=0.2)       # inside the estimator
+        proc = client.app.state.workers.procs[0]
+        proc.send_signal(signal.SIGKILL)                           # the worker dies mid-job
+        j = wait_state(api, jid, ("succeeded", "failed"), timeout_s=300)
+        assert j["state"] == "succeeded", j["error"]
+        assert j["attempts"] == 2 and len(j["result_ids"]) == 1
+        h = client.get("/health", headers=api.h("viewer")).json()
+        assert h["workers"]["restarts"] == 1 and h["status"] == "ok"
+        assert "SIGKILL" in h["workers"]["processes"][0]["last_exit"]["cause"]
+        assert h["workers"]["processes"][0]["last_exit"]["jobs"] == [jid]
+
+
+@pytest.mark.slow
 def test_service_killed_mid_job_requeues_and_completes_after_restart(api):
     from fastapi.testclient import TestClient
 
@@ -190,7 +217,9 @@ def test_service_killed_mid_job_requeues_and_completes_after_restart(api):
                         headers=api.h("operator"))
         jid = r.json()["id"]
         j = wait_state(api, jid, ("running",), min_progress=0.2)   # inside the estimator
-        proc = client.app.state.workers.procs[0]
+        pool = client.app.state.workers
+        pool.stop_supervising()                                    # the service dies with it
+        proc = pool.procs[0]
         proc.send_signal(signal.SIGKILL)                           # the worker dies mid-job
         proc.wait()
         assert get(api, f"/jobs/{jid}")["state"] == "running"      # nobody knows yet
