@@ -1,13 +1,16 @@
 """ONE engine that runs any plan (daq/plans.py) against the rig (daq/rig.py) and stores the run
-record (db/writer.py) while the run goes on.
+record (db/writer.py) while the run goes on: the run's lifecycle (start the rig, measure its
+time scale, record, make safe, stop).
 
 The record, in the spirit of bluesky's documents:
 - start: metadata — scheme and parameters, rig or emulator, the effects declared for an
   emulated rig, operator, software version, the rig's time scale, one descriptor per stream
-  (channel names, units, source) and the slow signals read at the start (baseline);
+  (channel names, units, source) and the slow signals read at the start (baseline)
+  (the documents are built in daq/run_record.py, typed in core/documents.py);
 - samples, committed in pages by the writer at least every second: on the plan's grid in rig
   time, the first PLC status snapshot of each slot (slots with none are counted as missed,
-  never filled), joined with the drives' fast TPDO samples aligned on the drive clock;
+  never filled), joined with the drives' fast TPDO samples aligned on the drive clock
+  (daq/sample_alignment.py);
 - interruptions as their own stream: interlock trips, lost drives, PLC link gaps, acquisition
   errors, each in run time [s];
 - stop: exit status `success`, `abort` (a trip, the operator) or `fail` (an error), the reason,
@@ -23,37 +26,29 @@ the real rig and on the emulator at any time scale.
 from __future__ import annotations
 
 import asyncio
-import bisect
 import contextlib
 import math
-import subprocess
 import time
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
-from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from core.documents import Baseline, Counters, ExitStatus, InterruptionKind, RunEnd, RunStart
+from core.jsonsafe import json_safe
+from core.plc_map import REGISTER_MAP
+from daq import run_record
 from daq.plans import Plan
 from daq.plc import PlcLinkError
 from daq.rig import Rig, RigSafeError
+from daq.run_record import PLC_CHANNELS  # noqa: F401 - the run's channels, imported from here too
+from daq.sample_alignment import SampleAligner
 from db.store import Store
-from db.writer import ChannelSpec, RunWriter
-from core.channels import unit_of
-from core.drive_od import STAMP_WRAP
-from core.plc_map import REGISTER_MAP
-from core.jsonsafe import json_safe
+from db.writer import RunWriter
 
-EXIT_SUCCESS, EXIT_ABORT, EXIT_FAIL = "success", "abort", "fail"
-
-PLC_CHANNELS: tuple[tuple[str, str], ...] = tuple(
-    (s.name, s.channel) for s in REGISTER_MAP.status.signals
-    if s.channel is not None and s.channel != "t")
-"""(status signal, run-format channel) of every PLC status signal that is a channel."""
-
-DRIVE_WRAP_MS = STAMP_WRAP
-"""The drives' sample stamp (0x2011) wraps at 2^16 ms."""
+EXIT_SUCCESS: ExitStatus = "success"
+EXIT_ABORT: ExitStatus = "abort"
+EXIT_FAIL: ExitStatus = "fail"
 
 
 @dataclass
@@ -79,28 +74,11 @@ class RunOutcome:
     """How a run ended."""
 
     run_id: int | None
-    exit_status: str
+    exit_status: ExitStatus
     reason: str | None
     n_samples: int
     missed: int
     interruptions: int
-
-
-def software_version() -> str:
-    """The package version, plus the git commit of the checkout when there is one."""
-    from importlib import metadata
-    try:
-        v = metadata.version("j4-test-platform")
-    except metadata.PackageNotFoundError:
-        v = "unknown"
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True, timeout=5, cwd=Path(__file__).resolve().parent)
-        if commit.returncode == 0 and commit.stdout.strip():
-            v += f"+g{commit.stdout.strip()}"
-    except (OSError, subprocess.SubprocessError):
-        pass
-    return v
 
 
 async def _off_loop(fn: Callable[..., Any], *args: Any) -> Any:
@@ -166,24 +144,28 @@ class Engine:
 
     def _reset_state(self) -> None:
         self.writer: RunWriter | None = None
+        self.aligner: SampleAligner | None = None
+        """The run's sample alignment, made once the time scale is measured."""
         self.time_scale = 1.0
-        self.t0: float | None = None          # rig_time at plan time 0 [s]
-        self._i_plc = 0                       # next PLC row to look at
         self._i_ev = 0                        # next rig event to look at
-        self._next_slot = 0
-        self._pending: list[int] = []         # PLC rows chosen as samples, waiting for drives
         self.n_samples = 0
-        self.missed = 0
         self.n_interruptions = 0
         self.skipped_writes = 0
         """Set-point writes skipped while the PLC link was down (retried at the next update)."""
         self._open_gap: float | None = None
-        self._drive_offset: dict[int, float] = {}
-        self._drive_clock_mode: str | None = None
         self._sent: dict[str, Any] = {}
         self._latest: dict[str, float] = {}
         self._last_progress = 0.0
-        self._done = False
+
+    @property
+    def missed(self) -> int:
+        """Grid slots of the run that had no PLC snapshot."""
+        return self.aligner.missed if self.aligner is not None else 0
+
+    @property
+    def t0(self) -> float | None:
+        """The rig time at plan time 0 [s] (None before the first sample)."""
+        return self.aligner.t0 if self.aligner is not None else None
 
     # --- the run ------------------------------------------------------------------------------
 
@@ -196,7 +178,10 @@ class Engine:
         status, reason = EXIT_FAIL, "engine did not start"
         try:
             await rig.start()
+            rig.use_limits(plan.limits)
             self.time_scale = await self._measure_time_scale()
+            self.aligner = SampleAligner(rig, plan, self.time_scale, drive_wait=self.drive_wait,
+                                         shared_drive_clock=self.shared_drive_clock)
             if self.reset_watchdog_fault:
                 await self._reset_watchdog_fault()
             self._check_rate(plan)
@@ -204,7 +189,7 @@ class Engine:
             self.writer = RunWriter(self.store, commit_interval_s=self.commit_interval_s)
             # database work off the event loop: it also writes the heartbeat the PLC watches
             await _off_loop(self.writer.start, self._start_meta(plan, start),
-                            self._channel_specs(plan))
+                            run_record.channel_specs(plan, rig))
             self._i_ev = len(rig.events)  # earlier events are in the start metadata
             await self._prepare(plan)
             status, reason = await self._loop(plan)
@@ -217,20 +202,20 @@ class Engine:
             status, reason = EXIT_FAIL, f"{type(exc).__name__}: {exc}"
             raise
         finally:
-            await self._finish(plan, status, reason)
+            await self._finish(status, reason)
         return RunOutcome(self.writer.run_id if self.writer else None, status, reason,
                           self.n_samples, self.missed, self.n_interruptions)
 
-    async def _finish(self, plan: Plan, status: str, reason: str | None) -> dict[str, Any]:
+    async def _finish(self, status: ExitStatus, reason: str | None) -> RunEnd:
         """Make safe, take what was acquired, read the end baseline, stop the run, stop the rig.
-        Each step is attempted whatever the others do."""
+        Each step is attempted whatever the others do. Returns the end document."""
         rig = self.rig
-        notes: dict[str, Any] = {}
+        notes: RunEnd = {}
         await rig.make_safe(f"run ended: {status}" + (f" ({reason})" if reason else ""))
         notes["after_make_safe"] = await self._final_outputs()
         if self.writer is not None and self.writer.run_id is not None:
             try:  # what was acquired up to now, including the way down to safe
-                self._collect(plan, final=True)
+                self._collect(final=True)
                 self._handle_events(final=True)
             except Exception as exc:  # noqa: BLE001 - the outcome must still be stored
                 notes["final_collect_error"] = repr(exc)
@@ -239,8 +224,7 @@ class Engine:
         except Exception as exc:  # noqa: BLE001 - the end baseline must not hide the outcome
             notes["end"] = {"error": repr(exc)}
         notes["counters"] = self._counters()
-        notes["events"] = [{"t_run": self._run_time(e.t), "source": e.source, "kind": e.kind,
-                            "message": e.message} for e in rig.events]
+        notes["events"] = run_record.event_notes(rig.events, self._run_time)
         w = self.writer
         try:
             if w is not None and w.run_id is not None:
@@ -320,7 +304,7 @@ class Engine:
                 f"per wall s (plc_poll_hz is {self.rig.settings.plc_poll_hz:g}): lower the "
                 "sample rate or raise RIG_PLC_POLL_HZ")
 
-    async def _read_slow(self) -> dict[str, Any]:
+    async def _read_slow(self) -> Baseline:
         """Slow signals and configuration: temperatures, PLC state, drive states and ratings."""
         rig = self.rig
         if rig.drives is not None:  # the status TPDO brings the temperatures
@@ -329,91 +313,23 @@ class Engine:
                    and time.monotonic() < end):
                 await asyncio.sleep(0.01)
         st = await rig.plc_client.read_status()
-        out: dict[str, Any] = {
-            "wall_time": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
-            "rig_time": st["rig_time"], "temp_joint": st["temp_joint"],
-            "plc": {k: st[k] for k in ("plc_mode", "fault_code", "status_bits", "pump_state",
-                                       "valve_state", "pressure_sp_applied", "torque_cmd")},
-            "safe": rig.safe,
-        }
-        if rig.drives is not None:
-            out["drives"] = [{"motor": d.motor, "node_id": d.node_id, "active": d.active,
-                              "dropped_reason": d.dropped_reason, "state": d.state,
-                              "temperature": d.temperature, "rated_current": d.rated_current,
-                              "rated_torque": d.rated_torque} for d in rig.drives.drives]
-            for d in rig.drives.drives:
-                out[f"temp_m{d.motor}"] = d.temperature
-        return _clean(out)
+        return run_record.baseline(st, rig)
 
-    def _start_meta(self, plan: Plan, baseline: dict[str, Any]) -> dict[str, Any]:
-        s = self.rig.settings
-        meta = plan.meta()
-        meta.update({
-            "rig": self.rig_name, "source": self.source,
-            "started_at": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
-            "notes": self.notes, "operator": self.operator,
-            "software_version": software_version(),
-            "rig_time_scale": self.time_scale,
-            "settings": s.as_dict(),
-            "streams": self._descriptors(plan),
-            "baseline_start": baseline,
-            "events_before_start": [{"source": e.source, "kind": e.kind, "message": e.message}
-                                    for e in self.rig.events],
-        })
-        if self.source == "emulator":
-            meta["effects"] = self.effects if self.effects is not None else None
-            meta["effects_declared_by"] = "operator" if self.effects is not None else None
-        return _clean(meta)
-
-    def _descriptors(self, plan: Plan) -> dict[str, Any]:
-        """One descriptor per stream: its source and its channels with units."""
-        s = self.rig.settings
-        plc = {ch: unit_of(ch) for _, ch in PLC_CHANNELS}
-        out: dict[str, Any] = {
-            "plc": {"source": f"PLC status block, Modbus TCP {s.plc_host}:{s.plc_port}",
-                    "clock": "rig_time (PLC acquisition clock)",
-                    "channels": {"t": "s", **plc}},
-            "plan": {"source": f"{plan.name} plan", "channels": self._plan_units(plan)},
-            "interruptions": {"source": "rig events (interlocks, drives, PLC link)",
-                              "kinds": ["interlock", "drive_lost", "plc_link_gap",
-                                        "acquisition_error"]},
-        }
-        if self.rig.drives is not None:
-            chans = {}
-            for d in self.rig.drives.drives:
-                chans.update({f"w_m{d.motor}": unit_of(f"w_m{d.motor}"),
-                              f"i_m{d.motor}": unit_of(f"i_m{d.motor}"),
-                              f"temp_m{d.motor}": unit_of(f"temp_m{d.motor}")})
-            out["drives"] = {"source": f"CANopen drives {list(s.node_ids)} via "
-                                       f"{s.can_interface} {s.can_host}:{s.can_port}",
-                             "clock": "drive sample stamp 0x2011", "channels": chans}
-        return out
-
-    def _plan_units(self, plan: Plan) -> dict[str, str]:
-        u = {"phase": "", "w_cmd": "rad/s"}
-        if plan.position_control:
-            u["q_ref"] = "rad"
-        return u
-
-    def _channel_specs(self, plan: Plan) -> list[ChannelSpec]:
-        specs = [ChannelSpec("t", "s", "plc:rig_time")]
-        specs += [ChannelSpec(ch, unit_of(ch), f"plc:{sig}") for sig, ch in PLC_CHANNELS]
-        if self.rig.drives is not None:
-            for d in self.rig.drives.drives:
-                src = f"drive {d.node_id}"
-                specs += [ChannelSpec(f"w_m{d.motor}", unit_of("w_m1"), f"{src}:0x606C"),
-                          ChannelSpec(f"i_m{d.motor}", unit_of("i_m1"), f"{src}:0x6078"),
-                          ChannelSpec(f"temp_m{d.motor}", unit_of("temp_m1"), f"{src}:0x2010")]
-        for name, unit in self._plan_units(plan).items():
-            specs.append(ChannelSpec(name, unit, f"plan:{plan.name}",
-                                     kind="text" if name == "phase" else "float"))
-        return specs
+    def _start_meta(self, plan: Plan, baseline: Baseline) -> RunStart:
+        return run_record.start_document(
+            plan, self.rig, rig_name=self.rig_name, source=self.source, notes=self.notes,
+            operator=self.operator, time_scale=self.time_scale, baseline_start=baseline,
+            effects=self.effects)
 
     async def _prepare(self, plan: Plan) -> None:
         """Set points of plan time 0, the run request, and the hydraulics if the plan uses them."""
         rig = self.rig
         if rig.safe:
             raise RigSafeError(self._trip_reason() or "rig is safe before the run")
+        if plan.homing:  # before plan time 0, recorded in the run's metadata
+            homing = await rig.home(self.time_scale)
+            await _off_loop(self.store.update_run_meta, self.writer.run_id,
+                            {"homing": json_safe(homing)})
         await rig.set_dyno_torque(0.0)
         await rig.plc_client.set_command_bits(run=True)
         if plan.uses_hydraulics:
@@ -423,27 +339,27 @@ class Engine:
 
     # --- the loop -----------------------------------------------------------------------------
 
-    async def _loop(self, plan: Plan) -> tuple[str, str | None]:
+    async def _loop(self, plan: Plan) -> tuple[ExitStatus, str | None]:
         rig = self.rig
         tick = max(0.002, 1.0 / rig.settings.plc_poll_hz)
         # set points go out at most every `cmd_period` s of rig time (the dynamometer lags
         # 0.2 s; a 20 Hz position loop at k_p = 5/s moves 1/4 of its error per update)
         cmd_period = min(0.5 * plan.period, 0.05)
         next_cmd = -math.inf
-        self._i_plc = len(rig.plc)  # plan time 0 is the first snapshot from now on
+        self.aligner.start_now()  # plan time 0 is the first snapshot from now on
         while True:
             await asyncio.sleep(tick)
             self._handle_events()
             if rig.safe:
-                self._collect(plan)
+                self._collect()
                 errors = rig.events_of("acquisition_error")
                 if errors and not rig.trips:
                     return EXIT_FAIL, f"acquisition error: {errors[0].message}"
                 return EXIT_ABORT, self._trip_reason() or "rig made safe during the run"
-            self._collect(plan)
-            if self._done:
+            self._collect()
+            if self.aligner.done:
                 return EXIT_SUCCESS, None
-            tau = self._now()
+            tau = self.aligner.now()
             if tau is not None and tau >= next_cmd:
                 next_cmd = tau + cmd_period
                 await self._command(plan, tau)
@@ -451,14 +367,6 @@ class Engine:
             if self.progress is not None and now - self._last_progress >= self.progress_period:
                 self._last_progress = now
                 self._report(plan)
-
-    def _now(self) -> float | None:
-        """Plan time now [s], from the latest snapshot extrapolated by the time scale."""
-        plc = self.rig.plc
-        if self.t0 is None or len(plc) == 0:
-            return None
-        i = len(plc) - 1
-        return plc["rig_time"][i] - self.t0 + (time.time() - plc["t_rx"][i]) * self.time_scale
 
     async def _command(self, plan: Plan, tau: float) -> None:
         """Send the set points of plan time `tau` [s] (only those that changed). While the
@@ -483,127 +391,20 @@ class Engine:
         except PlcLinkError:
             self.skipped_writes += 1
 
-    def _collect(self, plan: Plan, final: bool = False) -> None:
-        """Choose new PLC snapshots as samples (the first of each grid slot) and append those
-        whose drive samples are in (or waited for long enough; all of them when final)."""
-        plc = self.rig.plc
-        n = len(plc)
-        rt = plc["rig_time"]
-        n_slots = plan.n_samples()
-        while self._i_plc < n and not self._done:
-            i = self._i_plc
-            self._i_plc += 1
-            if self.t0 is None:
-                self.t0 = rt[i]
-            k = plan.slot(rt[i] - self.t0)
-            if k >= n_slots:
-                self.missed += n_slots - self._next_slot
-                self._next_slot = n_slots
-                self._done = True
-                break
-            if k >= self._next_slot:
-                self.missed += k - self._next_slot
-                self._next_slot = k + 1
-                self._pending.append(i)
-                if self._next_slot == n_slots:
-                    self._done = True
-        ready = []
-        while self._pending:
-            i = self._pending[0]
-            if not (final or self._drives_in(rt[i], plc["t_rx"][i])):
-                break
-            ready.append(self._pending.pop(0))
-        if ready:
-            self._append(plan, ready)
-
-    def _drives_in(self, rig_time: float, t_rx: float) -> bool:
-        """True when every active drive has a sample at or after `rig_time`, or the sample
-        has waited `drive_wait` s."""
-        d = self.rig.drives
-        if d is None or time.time() - t_rx > self.drive_wait:
-            return True
-        for dr in d.active:
-            st = dr.stream
-            if not len(st):
-                return False
-            off = self._offset(dr)
-            if off is None or st.stamp[-1] + off < rig_time * 1000.0:
-                return False
-        return True
-
-    def _offset(self, dr) -> float | None:
-        """Drive stamp → rig time [ms] offset of one drive (estimated once)."""
-        if dr.motor in self._drive_offset:
-            return self._drive_offset[dr.motor]
-        plc, st = self.rig.plc, dr.stream
-        if not len(st) or not len(plc):
-            return None
-        i = len(plc) - 1
-        est = plc["rig_time"][i] * 1000.0 + (st.t[-1] - plc["t_rx"][i]) * self.time_scale * 1000.0 \
-            - st.stamp[-1]
-        mode = "receive time"
-        if self.shared_drive_clock:
-            snapped = round(est / DRIVE_WRAP_MS) * DRIVE_WRAP_MS
-            if abs(est - snapped) < 1000.0:
-                est, mode = float(snapped), "shared with the PLC (stamp modulo 2^16 ms)"
-        self._drive_offset[dr.motor] = est
-        self._drive_clock_mode = mode
-        return est
-
-    def _drive_value(self, dr, rig_ms: float) -> tuple[float, float]:
-        """(speed, current) of the drive's latest sample at or before rig_ms; NaN when that
-        sample is older than two TPDO periods (lost, dropped) or there is none."""
-        st = dr.stream
-        off = self._offset(dr)
-        if off is None:
-            return math.nan, math.nan
-        j = bisect.bisect_right(st.stamp, rig_ms - off) - 1
-        if j < 0 or rig_ms - off - st.stamp[j] > 2 * st.period_ms + 1:
-            return math.nan, math.nan
-        return st.w[j], st.i[j]
-
-    def _append(self, plan: Plan, rows: list[int]) -> None:
-        plc = self.rig.plc
-        cols: dict[str, list] = {"t": []}
-        for sig, ch in PLC_CHANNELS:
-            cols[ch] = []
-        drives = self.rig.drives.drives if self.rig.drives is not None else []
-        for d in drives:
-            for c in (f"w_m{d.motor}", f"i_m{d.motor}", f"temp_m{d.motor}"):
-                cols[c] = []
-        cols["phase"], cols["w_cmd"] = [], []
-        if plan.position_control:
-            cols["q_ref"] = []
-        for i in rows:
-            rig_time = plc["rig_time"][i]
-            tau = rig_time - self.t0
-            cols["t"].append(tau)
-            for sig, ch in PLC_CHANNELS:
-                cols[ch].append(plc[sig][i])
-            for d in drives:
-                w, cur = self._drive_value(d, rig_time * 1000.0)
-                cols[f"w_m{d.motor}"].append(w)
-                cols[f"i_m{d.motor}"].append(cur)
-                cols[f"temp_m{d.motor}"].append(d.temperature)
-            sp = plan.setpoints(tau, plc["q"][i])
-            cols["phase"].append(sp.phase)
-            cols["w_cmd"].append(sp.motor_speed)
-            if plan.position_control:
-                cols["q_ref"].append(sp.q_ref)
+    def _collect(self, final: bool = False) -> None:
+        """Append the samples the alignment has ready (all of those chosen when final)."""
+        cols = self.aligner.collect(final)
+        if cols is None:
+            return
         self.writer.append(cols)
-        self.n_samples += len(rows)
+        self.n_samples += len(cols["t"])
         self._latest = {k: v[-1] for k, v in cols.items()}
 
     # --- interruptions --------------------------------------------------------------------------
 
     def _run_time(self, wall: float) -> float | None:
-        """Plan time [s] of a wall-clock instant, through the PLC snapshots' receive times."""
-        plc = self.rig.plc
-        if self.t0 is None or not len(plc):
-            return None
-        rx = plc["t_rx"]
-        j = max(0, bisect.bisect_right(rx, wall) - 1)
-        return plc["rig_time"][j] - self.t0 + (wall - rx[j]) * self.time_scale
+        """Plan time [s] of a wall-clock instant (None before the first sample)."""
+        return self.aligner.run_time(wall) if self.aligner is not None else None
 
     def _handle_events(self, final: bool = False) -> None:
         """Turn new rig events into interruptions of the run."""
@@ -633,7 +434,7 @@ class Engine:
                             "PLC link still down when the run ended", {})
             self._open_gap = None
 
-    def _interrupt(self, kind: str, t0: float | None, t1: float | None, reason: str,
+    def _interrupt(self, kind: InterruptionKind, t0: float | None, t1: float | None, reason: str,
                    detail: dict[str, Any]) -> None:
         self.writer.interruption(kind, t0, t1, reason, _clean(detail))
         self.n_interruptions += 1
@@ -651,22 +452,13 @@ class Engine:
 
     # --- reporting ------------------------------------------------------------------------------
 
-    def _counters(self) -> dict[str, Any]:
-        rig = self.rig
-        out: dict[str, Any] = {
-            "samples": self.n_samples, "missed_samples": self.missed,
-            "interruptions": self.n_interruptions, "skipped_writes": self.skipped_writes,
-            "plc_polls": rig.polls,
-            "plc_poll_errors": rig.poll_errors, "plc_repeats": rig.repeats,
-            "plc_overruns": rig.overruns, "drive_clock": self._drive_clock_mode,
-            "max_heartbeat_gap_s": round(rig.plc_client.max_beat_gap, 4),
-            "drive_clock_offset_ms": dict(self._drive_offset),
-        }
-        if rig.drives is not None:
-            out["drive_samples_lost"] = {d.motor: d.stream.lost for d in rig.drives.drives}
-            out["drive_samples_duplicated"] = {d.motor: d.stream.duplicated
-                                               for d in rig.drives.drives}
-        return out
+    def _counters(self) -> Counters:
+        a = self.aligner
+        return run_record.counters(
+            self.rig, samples=self.n_samples, missed=self.missed,
+            interruptions=self.n_interruptions, skipped_writes=self.skipped_writes,
+            drive_clock=a.drive_clock_mode if a is not None else None,
+            drive_offset_ms=a.drive_offset if a is not None else {})
 
     def _report(self, plan: Plan) -> None:
         lt = self._latest

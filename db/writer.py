@@ -29,6 +29,7 @@ from db.models import EXIT_STATUSES, Interruption, Run, utcnow
 from db.pages import PAGE_SAMPLES, ChannelRef, write_pages
 from db.store import Store, _parse_started, writer_identity
 from core.channels import PHASES, unit_of
+from core.documents import ExitStatus, RunMeta
 from core.runfile import validate_meta
 
 HEARTBEAT_S = 5.0
@@ -54,7 +55,7 @@ class RunWriter:
         self.commit_interval_s = commit_interval_s
         self.max_page = max_page
         self.run_id: int | None = None
-        self._meta: dict[str, Any] = {}
+        self._meta: RunMeta = {}
         self._channels: list[ChannelRef] = []
         self._buf: list[dict[str, Any]] = []
         self._pending_interruptions: list[dict[str, Any]] = []
@@ -72,10 +73,11 @@ class RunWriter:
 
     # --- lifecycle ------------------------------------------------------------------------
 
-    def start(self, meta: dict[str, Any], channels: Iterable[ChannelSpec | str],
+    def start(self, meta: RunMeta, channels: Iterable[ChannelSpec | str],
               rig: str | None = None) -> int:
         """Create the run (status 'running') with its channels; `t` is added first when not
-        listed. Returns the run id and starts the commit thread."""
+        listed. `meta`: the run-format metadata (the acquisition engine's start document,
+        core.documents.RunStart, is one). Returns the run id and starts the commit thread."""
         if self.run_id is not None:
             raise RuntimeError("this writer already started a run")
         self._meta = validate_meta(dict(meta), "<run metadata>")
@@ -177,7 +179,7 @@ class RunWriter:
                     self._pending_interruptions = intr + self._pending_interruptions
                 raise
 
-    def stop(self, exit_status: str = "success", reason: str | None = None) -> None:
+    def stop(self, exit_status: ExitStatus = "success", reason: str | None = None) -> None:
         """Commit what is left and close the run: status 'finished' with exit_status
         ('success', 'abort', 'fail') and the reason."""
         if exit_status not in EXIT_STATUSES:

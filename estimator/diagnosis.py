@@ -80,6 +80,7 @@ from estimator.models import LinearModel, eq11, model_from_spec
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
 from core import effects as fx
+from core.documents import DiagnosisReport
 from core.run import RunData
 
 OPTIONAL_SIGNALS = ("q", "qd", "qdd", "torque", "torque_load", "torque_rate", "temp_joint",
@@ -254,10 +255,11 @@ def _noise_floor(e: np.ndarray, run: np.ndarray) -> float:
 def diagnose(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
              base: str | LinearModel = "eq4", prep: PrepOptions | None = None,
              options: DiagnosisOptions | None = None,
-             transmission: str | LinearModel | None = "auto") -> dict:
+             transmission: str | LinearModel | None = "auto") -> DiagnosisReport:
     """Diagnose the gap between the nominal model `base` and the runs (see the module
-    docstring); returns the JSON-ready report with keys baseline, regions, candidates, verdict
-    (and tests, shrinkage, skipped, ambiguities; `series` with options.series_points > 0)."""
+    docstring); returns the JSON-ready report (core.documents.DiagnosisReport) with keys
+    baseline, regions, candidates, verdict (and tests, shrinkage, skipped, ambiguities;
+    `series` with options.series_points > 0)."""
     return diagnose_detailed(train_runs, test_runs, base, prep, options, transmission).report
 
 
@@ -266,7 +268,7 @@ class Diagnosis:
     """A diagnosis: its JSON-ready report, and the least-squares fits it made on the training
     runs — the nominal model, and the model with the chosen effects (None when none was
     chosen) — as estimator.result.Fit (to store and tabulate like any identification)."""
-    report: dict
+    report: DiagnosisReport
     baseline: Fit
     final: Fit | None
     transmission: "Diagnosis | None" = None
@@ -550,7 +552,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     moved = _moved(base_fit, cur, n_base)[0] if chosen else {}
     ambiguities = sorted({tuple(sorted([r["effect"], o])) for r in table
                           for o in r["ambiguous_with"]})
-    report = {
+    report: DiagnosisReport = {
         "baseline": {"model": model.name, "rmse_train": _rmse(base_fit.e_train),
                      "rmse_test": _rmse(base_fit.e_test),
                      "target": {"label": model.target_label, "unit": model.target_unit},

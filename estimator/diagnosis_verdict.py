@@ -3,8 +3,10 @@ left, and the merge of the output-side and the twist–torque laws' diagnoses in
 
 from __future__ import annotations
 
+from core.documents import DiagnosisReport
 
-def merge_transmission(report: dict, tx: dict) -> None:
+
+def merge_transmission(report: DiagnosisReport, tx: DiagnosisReport) -> None:
     """Fold the transmission law's diagnosis `tx` into the output-side `report` (in place):
     `transmission` holds it whole; `candidates` gets its candidates, every row naming the
     `model` it was added to, best first by held-out shrinkage; the verdict lists both laws'
@@ -43,7 +45,7 @@ def combined_status(statuses: list[str]) -> str:
     return "unexplained"
 
 
-def verdict_summary(report: dict) -> str:
+def verdict_summary(report: DiagnosisReport) -> str:
     """The verdict in one sentence, the same in the text output and the JSON (verdict.summary):
     what was chosen, on which law, how far it shrinks that law's held-out error, what structure
     is left, and, when nothing was chosen, that no candidate is a cause."""
