@@ -74,11 +74,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=None, metavar="PATH",
                         help="output file (.csv or .parquet; a .json with the metadata is "
                              "written beside it). Default: scheme<N>_seed<S>.csv")
+    parser.add_argument("--json", action="store_true",
+                        help="print JSON (README, \"JSON output\") instead of the summary")
 
 
 def run(args: argparse.Namespace) -> int:
     import dataclasses
     import math
+    import sys
     from pathlib import Path
 
     import numpy as np
@@ -97,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     known = {f.name for f in dataclasses.fields(JointParams)}
     for key, value in args.param:
         if key not in known:
-            print(f"rig simulate: unknown parameter {key!r}; `rig params` lists them")
+            print(f"rig simulate: unknown parameter {key!r}; `rig params` lists them",
+                  file=sys.stderr)
             return 2
         params = params.replace(**{key: int(value) if key == "n" else value})
     try:
@@ -107,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
                                 sample_rate_hz=args.sample_rate, dropout=args.dropout,
                                 failed_motors=dict(args.fail_motor))
     except ValueError as exc:
-        print(f"rig simulate: {exc}")
+        print(f"rig simulate: {exc}", file=sys.stderr)
         return 2
     run_data = simulate(plan, config)
     out = Path(args.out) if args.out else Path(f"scheme{number}_seed{args.seed}.csv")
@@ -116,6 +120,17 @@ def run(args: argparse.Namespace) -> int:
     s = run_data.samples
     q = s["q"].to_numpy()
     torque = s["torque"].to_numpy()
+    if args.json:
+        import json
+        from core.jsonsafe import json_safe
+        print(json.dumps(json_safe({
+            "scheme": number, "samples": len(s), "duration_s": float(s["t"].iloc[-1]),
+            "sample_rate_hz": float(run_data.meta["sample_rate_hz"]),
+            "travel_rad": float(np.nanmax(q) - np.nanmin(q)),
+            "peak_torque_nm": float(np.nanmax(np.abs(torque))),
+            "effects": list(config.effects), "hysteresis": bool(config.hysteresis),
+            "seed": args.seed, "files": [str(p) for p in paths]}), allow_nan=False))
+        return 0
     print(f"scheme {number}: {len(s)} samples over {s['t'].iloc[-1]:.1f} s at "
           f"{run_data.meta['sample_rate_hz']:g} Hz, travel {math.degrees(np.nanmax(q) - np.nanmin(q)):.1f}°, "
           f"peak torque {np.nanmax(np.abs(torque)) / 1e3:.1f} kN·m")

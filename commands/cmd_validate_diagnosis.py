@@ -31,13 +31,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import json
+
+    from commands.progress import Counter
     if args.tuning:
         res = tuning()
         print(json.dumps(res, indent=2, default=float) if args.json else format_tuning(res))
         return 0
     try:
         res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
-                       first_seed=args.first_seed)
+                       first_seed=args.first_seed,
+                       progress=Counter("diagnosis cells", "cell"))
     except ValueError as exc:
         import sys
         print(f"rig validate-diagnosis: {exc}", file=sys.stderr)
@@ -47,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         from commands.independent_harness import validate_independent
         ind = validate_independent(seeds=args.seeds or 1, first_seed=args.first_seed,
                                    quick=args.quick, workers=args.workers,
-                                   progress=_progress)
+                                   progress=Counter("independent campaigns", "cell"))
     if args.json:
         print(json.dumps({**res, "independent": ind} if ind else res, indent=2, default=float))
     else:
@@ -58,9 +61,3 @@ def run(args: argparse.Namespace) -> int:
             print(format_side_by_side(res, ind))
     return 0
 
-
-def _progress(done: int, total: int) -> None:
-    import sys
-    if sys.stderr.isatty():
-        print(f"\rindependent campaigns {done}/{total}", end="" if done < total else "\n",
-              file=sys.stderr, flush=True)

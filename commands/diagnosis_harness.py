@@ -316,9 +316,10 @@ def run_cell(effects: dict[str, dict], seed: int, oov: dict | None = None) -> di
 
 
 def validate(quick: bool = False, seeds: int | None = None, emps: bool = True,
-             first_seed: int = 1) -> dict:
+             first_seed: int = 1, progress=None) -> dict:
     """Run every cell and score it (the issue's figures); returns a JSON-ready dict. The
-    scoring campaigns use seeds first_seed, first_seed + 1, … (never a tuning seed)."""
+    scoring campaigns use seeds first_seed, first_seed + 1, … (never a tuning seed).
+    `progress(done, total)` is called after each cell."""
     n_seeds = seeds or (2 if quick else 3)
     most = n_seeds * 4        # the most seeds a cell kind uses (the no-effect cells)
     used = set(range(first_seed, first_seed + most))
@@ -329,23 +330,35 @@ def validate(quick: bool = False, seeds: int | None = None, emps: bool = True,
     seed = [first_seed + i for i in range(most)]
     enrs = (0.5, 1.0, 2.0)
     cells = []
+    n_pairs = 4 if quick else 8
+    total = n_seeds * (len(enrs) * len(ALL_CLASSES) + (2 if quick else 4) + (1 if quick else 2)
+                       + len(OOV_EFFECTS) + n_pairs)
+    done = 0
+
+    def cell(*a):
+        nonlocal done
+        out = run_cell(*a)
+        done += 1
+        if progress:
+            progress(done, total)
+        return out
     for enr in enrs:
         for name in ALL_CLASSES:
             for s in range(n_seeds):
                 eff = {name: magnitude_for(name, enr)}
                 cells.append({"kind": "single", "truth": [name], "enr": enr, "seed": seed[s],
-                              **run_cell(eff, seed[s])})
+                              **cell(eff, seed[s])})
     for s in range(n_seeds * (2 if quick else 4)):
         cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": seed[s],
-                      **run_cell({}, seed[s])})
+                      **cell({}, seed[s])})
     for s in range(n_seeds * (1 if quick else 2)):   # the elastic world, against Eq. 5
         cells.append({"kind": "none", "truth": [], "enr": 0.0, "seed": seed[s],
-                      **run_cell(dict(ELASTIC), seed[s])})
+                      **cell(dict(ELASTIC), seed[s])})
     for name in OOV_EFFECTS:
         for s in range(n_seeds):
             c = magnitude_for(name, 2.0)["c"]
             cells.append({"kind": "oov", "truth": [name], "enr": 2.0, "seed": seed[s],
-                          **run_cell({}, seed[s], {name: c})})
+                          **cell({}, seed[s], {name: c})})
     pairs = [("stribeck", "gear_ripple"), ("load_dependent_friction", "torque_offset"),
              ("temperature_friction", "time_delay"), ("backlash", "stribeck")]
     if not quick:
@@ -355,7 +368,7 @@ def validate(quick: bool = False, seeds: int | None = None, emps: bool = True,
         for s in range(n_seeds):
             eff = {a: magnitude_for(a, 2.0), b: magnitude_for(b, 2.0)}
             cells.append({"kind": "pair", "truth": [a, b], "enr": 2.0, "seed": seed[s],
-                          **run_cell(eff, seed[s])})
+                          **cell(eff, seed[s])})
     calib = {k: {"enr_at_default": v, "params_at_enr_1": magnitude_for(k, 1.0)}
              for k, v in _UNIT_ENR.items()}
     return {"cells": cells, "scores": score(cells), "emps": run_emps() if emps else None,

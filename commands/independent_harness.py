@@ -61,6 +61,8 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("two-inertia 1 kHz, 0.001° encoder, 20 ms torque lag", "two_inertia",
             {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.001, "torque_noise": 300.0,
              "torque_lag_s": 0.02}),
+    Variant("rig B 50 Hz, 0.005° encoder", "rig_b",
+            {"sample_rate_hz": 50.0, "encoder_res_deg": 0.005}),
 )
 
 # (scheme, motor speed [r/min], direction, training?)

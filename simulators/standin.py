@@ -329,7 +329,10 @@ def run(args: argparse.Namespace, live: Any = None) -> int:
 
 
 def main(argv: list[str] | None = None, live: Any = None) -> int:
-    """Entry point without the `rig` wrapper (`python -m simulators.standin`)."""
+    """Entry point without the `rig` wrapper (`python -m simulators.standin`); logging as
+    `rig` configures it (env RIG_LOG_LEVEL, RIG_LOG_FORMAT: core/logging_setup.py)."""
+    from core.logging_setup import configure_logging
+    configure_logging()
     parser = argparse.ArgumentParser(prog="rig emulate")
     add_arguments(parser)
     return run(parser.parse_args(argv), live=live)

@@ -1,0 +1,112 @@
+"""Progress of long commands on stderr (stdout stays for results and `--json`).
+
+On a terminal: a tqdm bar with count, rate and time left, redrawn in place and sized to the
+terminal's width at every redraw (`dynamic_ncols`), so a narrow or resized window never makes
+it wrap. Not a terminal (a log file, a pipe, the service's job log): plain lines, at most one
+every PLAIN_INTERVAL_S and a last one when done — only for work that lasted that long, so a
+short command leaves its log alone.
+
+    with progress(total=len(files), desc="import", unit="file") as bar:
+        for f in files:
+            ...
+            bar.update(1)
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import IO, Any
+
+PLAIN_INTERVAL_S = 5.0
+"""Least time between two plain progress lines when stderr is not a terminal [s]."""
+
+
+def _fmt_s(seconds: float) -> str:
+    seconds = max(0.0, seconds)
+    m, s = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m:02d}:{s:02d}"
+
+
+class PlainProgress:
+    """Throttled plain lines: `desc: n/total (pct) rate unit/s, elapsed, left`."""
+
+    def __init__(self, total: int | None, desc: str, unit: str, stream: IO[str],
+                 interval_s: float = PLAIN_INTERVAL_S, clock=time.monotonic) -> None:
+        self.total, self.desc, self.unit, self.stream = total, desc, unit, stream
+        self.interval_s = interval_s
+        self.clock = clock
+        self.n = 0
+        self.t0 = clock()
+        self.last = self.t0
+        self.printed = False
+
+    def line(self) -> str:
+        el = self.clock() - self.t0
+        rate = self.n / el if el > 0 else 0.0
+        if self.total:
+            left = (self.total - self.n) / rate if rate > 0 else float("nan")
+            head = f"{self.n}/{self.total} ({100.0 * self.n / self.total:.0f}%)"
+            tail = f", left {_fmt_s(left)}" if left == left else ""
+        else:
+            head, tail = f"{self.n}", ""
+        return f"{self.desc}: {head} {rate:.3g} {self.unit}/s, elapsed {_fmt_s(el)}{tail}"
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+        now = self.clock()
+        if now - self.last >= self.interval_s:
+            self.last = now
+            self.printed = True
+            print(self.line(), file=self.stream, flush=True)
+
+    def set_postfix_str(self, text: str) -> None:  # tqdm's API; nothing to show between lines
+        pass
+
+    def close(self) -> None:
+        if self.printed or self.clock() - self.t0 >= self.interval_s:
+            print(self.line() + " done", file=self.stream, flush=True)
+
+    def __enter__(self) -> "PlainProgress":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def progress(total: int | None, desc: str, unit: str = "it", stream: IO[str] | None = None,
+             disable: bool = False) -> Any:
+    """A progress object with `update(n)`, `set_postfix_str(text)`, `close()` (and a context
+    manager): a tqdm bar on a terminal, PlainProgress otherwise; `disable` shows nothing."""
+    stream = stream if stream is not None else sys.stderr
+    isatty = getattr(stream, "isatty", lambda: False)
+    if disable:
+        return PlainProgress(total, desc, unit, stream, interval_s=float("inf"))
+    if isatty():
+        from tqdm import tqdm
+        return tqdm(total=total, desc=desc, unit=unit, file=stream, dynamic_ncols=True,
+                    mininterval=0.2, leave=True)
+    return PlainProgress(total, desc, unit, stream)
+
+
+class Counter:
+    """A `progress(done, total)` callback (the harnesses' hook) drawing one bar."""
+
+    def __init__(self, desc: str, unit: str = "cell", stream: IO[str] | None = None) -> None:
+        self.desc, self.unit, self.stream = desc, unit, stream
+        self.bar: Any = None
+        self.done = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = progress(total, self.desc, self.unit, self.stream)
+        self.bar.update(done - self.done)
+        self.done = done
+        if done >= total:
+            self.close()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None

@@ -1,0 +1,213 @@
+"""Progress on stderr (commands/progress.py, `rig run`'s live line): in a pseudo-terminal of 80
+columns every update is redrawn on ONE line that never exceeds the width (read back from the
+pty's master side); not on a terminal, plain lines (no carriage returns), throttled; the
+diagnosis harness reports every cell it runs."""
+
+import fcntl
+import io
+import os
+import re
+import select
+import struct
+import termios
+from types import SimpleNamespace
+
+import pytest
+
+from commands import diagnosis_harness
+from commands.cmd_run import LiveLine
+from commands.progress import Counter, PlainProgress, progress
+
+ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def pty_stream(cols: int, rows: int = 24):
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
+    return master, os.fdopen(slave, "w", buffering=1, encoding="utf-8")
+
+
+def drain(master: int) -> str:
+    out = b""
+    while select.select([master], [], [], 0.2)[0]:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:
+            break
+        if not chunk:
+            break
+        out += chunk
+    return out.decode("utf-8", "replace").replace("\r\n", "\n")
+
+
+def updates(text: str) -> list[list[str]]:
+    """Screen lines (split at newlines), each as its successive redraws (split at CR)."""
+    return [[ANSI.sub("", u) for u in line.split("\r") if u] for line in text.split("\n")]
+
+
+def fake_progress(i: int, n: int) -> SimpleNamespace:
+    latest = {"q": 1.23456789 * i, "torque": -123456.789 * i, "torque_load": 98765.4321,
+              "i_m1": 12.3456, "w_m1": 314.159265, "p_hyd": 2.5e6}
+    return SimpleNamespace(fraction=i / n, t=10.0 * i, duration=10.0 * n, phase="load_step",
+                           n_samples=100000 * i, missed=i, latest=latest)
+
+
+@pytest.mark.parametrize("cols", [80, 40])
+def test_rig_run_live_line_stays_on_one_line_of_the_terminal(cols):
+    master, stream = pty_stream(cols)
+    try:
+        live = LiveLine(stream)
+        n = 20
+        for i in range(1, n + 1):
+            live(fake_progress(i, n))
+        live.close()
+        text = drain(master)
+    finally:
+        stream.close()
+        os.close(master)
+    lines = updates(text)
+    assert len(lines) == 2 and lines[1] == []          # all redraws on one line, one newline
+    redraws = lines[0]
+    assert len(redraws) == 20
+    assert all(len(u) <= cols - 1 for u in redraws), max(map(len, redraws))
+    assert redraws[-1].startswith("[") and "100.0%" in redraws[-1]
+
+
+def test_rig_run_live_line_prints_plain_lines_when_not_a_terminal():
+    buf = io.StringIO()
+    live = LiveLine(buf)
+    for i in range(1, 4):
+        live(fake_progress(i, 3))
+    live.close()
+    out = buf.getvalue()
+    assert "\r" not in out and "\x1b" not in out
+    assert len(out.splitlines()) == 3 and "t=30.0/30.0 s" in out
+
+
+def test_progress_bar_in_an_80_column_pty_has_rate_and_time_left_on_one_line():
+    master, stream = pty_stream(80)
+    try:
+        with progress(50, "cells", "cell", stream=stream) as bar:
+            for _ in range(50):
+                bar.update(1)
+        text = drain(master)
+    finally:
+        stream.close()
+        os.close(master)
+    lines = updates(text)
+    assert lines[-1] == [] and len(lines) == 2
+    redraws = lines[0]
+    assert redraws and all(len(u) <= 80 for u in redraws), max(map(len, redraws))
+    assert "50/50" in redraws[-1] and "cell/s" in redraws[-1]
+    assert any(re.search(r"<\d\d:\d\d", u) for u in redraws)      # time left
+    master, stream = pty_stream(40)                 # a narrow window: the bar shrinks to fit
+    try:
+        with progress(50, "cells of a long description", "cell", stream=stream) as bar:
+            bar.update(7)
+        narrow = updates(drain(master))[0]
+    finally:
+        stream.close()
+        os.close(master)
+    assert narrow and all(len(u) <= 40 for u in narrow)
+
+
+def test_plain_progress_is_throttled_and_ends_with_a_done_line():
+    now = [0.0]
+    buf = io.StringIO()
+    bar = PlainProgress(10, "import", "file", buf, interval_s=5.0, clock=lambda: now[0])
+    for _ in range(10):
+        now[0] += 1.0
+        bar.update(1)
+    bar.close()
+    lines = buf.getvalue().splitlines()
+    assert lines == ["import: 5/10 (50%) 1 file/s, elapsed 00:05, left 00:05",
+                     "import: 10/10 (100%) 1 file/s, elapsed 00:10, left 00:00",
+                     "import: 10/10 (100%) 1 file/s, elapsed 00:10, left 00:00 done"]
+    quick = io.StringIO()
+    with PlainProgress(3, "import", "file", quick, clock=lambda: 0.0) as b:
+        b.update(3)
+    assert quick.getvalue() == ""                # short work leaves a log alone
+
+
+def test_validate_diagnosis_reports_every_cell(monkeypatch):
+    monkeypatch.setattr(diagnosis_harness, "run_cell", lambda *a: {})
+    monkeypatch.setattr(diagnosis_harness, "score", lambda cells: {})
+    monkeypatch.setattr(diagnosis_harness, "transmission_noise", lambda: 1.0)
+    monkeypatch.setattr(diagnosis_harness, "magnitude_for", lambda name, enr: {"c": 1.0})
+    for quick in (True, False):
+        calls = []
+        res = diagnosis_harness.validate(quick=quick, emps=False,
+                                         progress=lambda d, t: calls.append((d, t)))
+        n = len(res["cells"])
+        assert calls == [(i, n) for i in range(1, n + 1)]
+
+
+def test_counter_draws_one_bar_from_done_total_calls():
+    buf = io.StringIO()
+    c = Counter("independent campaigns", stream=buf)
+    for d in range(1, 4):
+        c(d, 3)
+    assert c.bar is None and c.done == 3
+
+
+def test_rig_run_json_end_record_and_live_line_in_an_80_column_pty(tmp_path):
+    """`rig run --json` against the stand-in: stdout is the end record alone; stderr, a pty of
+    80 columns, carries the live line, every redraw within 79 columns."""
+    import json
+    import subprocess
+    import sys
+
+    from drivers_harness import SLACK_ENV, SLACK_STANDIN, StandinProcess
+
+    with StandinProcess(["--time-scale", "5", "--seed", "3", *SLACK_STANDIN]) as sp:
+        env = {**os.environ, **SLACK_ENV, "RIG_PLC_PORT": str(sp.plc_port),
+               "RIG_CAN_PORT": str(sp.can_port), "RIG_DB_URL": f"sqlite:///{tmp_path}/r.sqlite"}
+        master, stream = pty_stream(80)
+        try:
+            p = subprocess.run([sys.executable, "-m", "commands.cli", "run", "scheme3",
+                                "--periods", "1", "--base-freq", "0.1", "--sample-rate", "10",
+                                "--rest-time", "1", "--json"],
+                               stdout=subprocess.PIPE, stderr=stream, env=env, text=True,
+                               timeout=300)
+            err = drain(master)
+        finally:
+            stream.close()
+            os.close(master)
+    assert p.returncode == 0, err
+    rec = json.loads(p.stdout)
+    assert set(rec) == {"run_id", "plan", "scheme", "source", "exit_status", "reason",
+                        "n_samples", "missed", "interruptions"}
+    assert rec["exit_status"] == "success" and rec["scheme"] == 3 and rec["n_samples"] > 50
+    redraws = [u for line in updates(err) for u in line if u.startswith("[")]
+    assert len(redraws) >= 3 and all(len(u) <= 79 for u in redraws), max(redraws, key=len)
+    bar_lines = [line for line in updates(err) if any(u.startswith("[") for u in line)]
+    assert len(bar_lines) == 1          # every update redrawn on the same screen line
+
+
+def test_a_log_record_never_runs_on_from_a_live_line_in_the_terminal():
+    import logging
+
+    from core.logging_setup import configure_logging
+    root = logging.getLogger()
+    saved = root.level, list(root.handlers)
+    master, stream = pty_stream(80)
+    try:
+        configure_logging("WARNING", stream=stream)
+        live = LiveLine(stream)
+        live(fake_progress(1, 2))
+        logging.getLogger("daq.plc").warning("PLC link lost")
+        live(fake_progress(2, 2))
+        live.close()
+        text = drain(master)
+    finally:
+        for h in list(root.handlers):
+            if h not in saved[1]:
+                root.removeHandler(h)
+        root.setLevel(saved[0])
+        stream.close()
+        os.close(master)
+    lines = updates(text)
+    log_line = next(line for line in lines if any("PLC link lost" in u for u in line))
+    assert [u for u in log_line if "PLC link lost" in u][0].split(" ", 2)[2].startswith(
+        "WARNING daq.plc: PLC link lost")
+    assert all(len(u) <= 79 for line in lines for u in line if u.startswith("["))
