@@ -66,30 +66,40 @@ def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, 
     if job is None:
         return None
     results = queue.results_of(store, job_id)
-    diagnosis = None
+    diagnosis = reproduction = None
     for res in results:
         docs = res.pop("documents", {})
         diagnosis = diagnosis or docs.get("diagnosis")
+        reproduction = reproduction or docs.get("reproduction")
         res["documents"] = sorted(docs)
     rep: dict[str, Any] = {"job": job, "results": results, "tables": None}
     if diagnosis is not None:
         rep["diagnosis"] = diagnosis
+    if reproduction is not None:
+        rep["reproduction"] = reproduction
     fits = fits_of(store, job_id) if results else []
     if fits:
         from estimator.tables import report as tables_report, sobol_table
         by_model: dict[str, list] = {}
         for f in fits:
             by_model.setdefault(f.model, []).append(f)
-        text = "\n\n".join(
-            tables_report(group, f"{m}"
-                          + (f" ({group[0].extra['diagnosis']} model of the diagnosis)"
-                             if group[0].extra.get("diagnosis") else "")
-                          + ": estimates, 95 % intervals and RMSE")
-            for m, group in by_model.items())
-        for f in fits:
-            if f.extra.get("sobol"):
-                text += "\n\n" + sobol_table(f.extra["sobol"], f"Sobol indices ({f.method})")
-        rep["tables"] = text
+        def tables(html: bool) -> str:
+            parts = [tables_report(group, f"{m}"
+                                   + (f" ({group[0].extra['diagnosis']} model of the diagnosis)"
+                                      if group[0].extra.get("diagnosis") else "")
+                                   + ": estimates, 95 % intervals and RMSE", html=html)
+                     for m, group in by_model.items()]
+            parts += [sobol_table(f.extra["sobol"], f"Sobol indices ({f.method})", html=html)
+                      for f in fits if f.extra.get("sobol")]
+            return ("" if html else "\n\n").join(parts)
+        rep["tables"] = tables(html=False)
+        if with_plots:                                   # the page shows them as HTML tables
+            rep["tables_html"] = tables(html=True)
+    if with_plots and reproduction is not None:
+        from api.reproduction_plots import reproduction_figures
+        rep["plots"] = {"reproduction_" + k: v
+                        for k, v in reproduction_figures(reproduction).items()}
+        return json_clean(rep)      # the reproduction's own figures; its fits are in its tables
     if with_plots:
         from api.fit_series import predicted_vs_measured
         from estimator import plots
@@ -125,10 +135,13 @@ def job_report(store: Store, job_id: int, with_plots: bool = True) -> dict[str, 
 
 # --- HTML --------------------------------------------------------------------------------------
 
-STYLE = """body{font-family:sans-serif;margin:2em;max-width:70em}
+STYLE = """body{font-family:system-ui,-apple-system,"Segoe UI","DejaVu Sans",sans-serif;
+margin:2em;max-width:70em;color:#1d2330}
 table{border-collapse:collapse;font-size:90%}td,th{border:1px solid #bbb;padding:2px 6px}
 .pass{background:#d7f5d7}.fail{background:#f7d4d4}img{max-width:100%;display:block;margin:1em 0}
-pre{background:#f6f6f6;padding:1em;overflow-x:auto}"""
+pre{background:#f6f6f6;padding:1em;overflow-x:auto}
+table.paper{margin:1em 0}table.paper caption{text-align:left;font-weight:bold;padding:4px 0}
+th{background:#eef0f4}"""
 
 
 def _e(x: Any) -> str:
@@ -144,6 +157,18 @@ def _table(rows: list[dict[str, Any]], cols: list[str], cls: Callable[[dict], st
         f"<tr class=\"{cls(r) if cls else ''}\">" + "".join(f"<td>{_e(r.get(c))}</td>" for c in cols)
         + "</tr>" for r in rows)
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _flat(params: dict[str, Any], prefix: str = "") -> list[dict[str, Any]]:
+    """A job's parameters as rows {parameter, value}; nested options as `options.draws`."""
+    rows: list[dict[str, Any]] = []
+    for k, v in params.items():
+        if isinstance(v, dict) and v:
+            rows += _flat(v, f"{prefix}{k}.")
+        else:
+            rows.append({"parameter": f"{prefix}{k}",
+                         "value": ", ".join(map(str, v)) if isinstance(v, list) else v})
+    return rows
 
 
 def _img(name: str, svg: bytes) -> str:
@@ -190,7 +215,7 @@ def job_report_html(rep: dict[str, Any]) -> str:
                                      "started_at", "finished_at")}
     summary["running_s"] = j["timings"]["running_s"]
     parts = ["<h2>Job</h2>", _table([summary], list(summary)),
-             "<h3>Parameters</h3>", f"<pre>{_e(j['params'])}</pre>"]
+             "<h3>Parameters</h3>", _table(_flat(j["params"]), ["parameter", "value"])]
     if j.get("error"):
         parts.append(f"<h3>Error</h3><pre>{_e(j['error'])}</pre>")
     for res in rep["results"]:
@@ -198,15 +223,48 @@ def job_report_html(rep: dict[str, Any]) -> str:
         parts.append(f"<h2>Result {res['id']}: {_e(res['model'])} by {_e(res['method'])}</h2>"
                      f"<p>Runs: {_e(runs)}</p>")
     plots = dict(rep.get("plots") or {})
+    if rep.get("reproduction"):
+        figs = {n[len("reproduction_"):]: plots.pop(n) for n in list(plots)
+                if n.startswith("reproduction_")}
+        parts.append(reproduction_section(rep["reproduction"], figs))
     if rep.get("diagnosis"):
         gap = {n: plots.pop(n) for n in list(plots) if n.startswith("diagnosis_")}
         parts.append(diagnosis_html(rep["diagnosis"], gap))
-    if rep.get("tables"):
+    if rep.get("tables_html"):
+        parts += ["<h2>Identification tables</h2>", rep["tables_html"]]
+    elif rep.get("tables"):
         parts += ["<h2>Identification tables</h2>", f"<pre>{_e(rep['tables'])}</pre>"]
     if plots:
         parts.append("<h2>Plots</h2>")
         parts += [_img(n, s) for n, s in plots.items()]
     return _page(f"Job {j['id']} — {j['kind']} report", "".join(parts))
+
+
+def reproduction_section(rep: dict[str, Any], plots: dict[str, bytes]) -> str:
+    """The paper reproduction (api.paper_reproduction): each table with ours, the paper's value
+    and the ratio, the measured explanations, then the figures."""
+    s = rep["settings"]
+    parts = [f"<h2>Paper reproduction ({'quick' if s['quick'] else 'full'} mode, seed "
+             f"{_e(s['seed'])}, {_e(rep['timings'].get('total'))} s)</h2>",
+             _table([{"role": k, "runs": "; ".join(v)} for k, v in rep["campaign"].items()],
+                    ["role", "runs"])]
+    for tab in rep["tables"].values():
+        rows = [{**r, "CI": (f"[{_num(r['ci'][0])}, {_num(r['ci'][1])}]" if r.get("ci") else ""),
+                 "paper CI": (f"[{_num(r['paper_ci'][0])}, {_num(r['paper_ci'][1])}]"
+                              if r.get("paper_ci") else "")} for r in tab["rows"]]
+        cols = ["quantity", "unit", "ours", "paper", "ratio"]
+        cols += [c for c in ("CI", "paper CI", "truth", "status", "note")
+                 if any(r.get(c) not in (None, "") for r in rows)]
+        parts += [f"<h3>{_e(tab['title'])}</h3>", _table(rows, cols)]
+    parts.append("<h3>Where ours differs from the paper, and why (measured)</h3><ul>"
+                 + "".join(f"<li>{_e(x)}</li>" for x in rep["explanations"]) + "</ul>")
+    parts += [_img(n, v) for n, v in plots.items()]
+    return "".join(parts)
+
+
+def reproduction_html(rep: dict[str, Any], plots: dict[str, bytes]) -> str:
+    """The reproduction as its own page (`rig reproduce`)."""
+    return _page("Reproduction of the paper on the emulator", reproduction_section(rep, plots))
 
 
 def _pct(x: float | None) -> str:

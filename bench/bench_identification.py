@@ -23,6 +23,13 @@
     coordinate, next to full-batch Metropolis–Hastings (E1's MH on sufficient statistics, and a
     plain MH evaluating the full-data likelihood each step).
 
+(d) The Bouc–Wen fit on a two-run pair at the PLC's 20 Hz (emulated scheme 1 at 300 and 3000
+    r/min, the state restarting at each run): our HMC through fit_bouc_wen next to NumPyro NUTS
+    on the same collapsed posterior (the fit's fixed sub-step counts, restarts and prior).
+(e) The whole `rig reproduce` (`--quick` with --quick): wall and CPU seconds.
+    `--only d|e|de` runs just those; without NumPyro (the `bench` extra) (d) runs without its
+    peer and (e) alone follows.
+
 ESS is the bulk ESS (rank-normalised split R-hat machinery of estimator.convergence, the same
 for every sampler), minimum over parameters; ESS/s divides by the sampler's wall time warm-up
 included and compilation excluded (JIT/compile time is reported in its own column). NumPyro
@@ -57,7 +64,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from estimator.bouc_wen import fit_bouc_wen, least_squares_fit, posterior_mode  # noqa: E402
+from estimator.bouc_wen import (fit_bouc_wen, least_squares_fit, posterior_mode,  # noqa: E402
+                                substep_stiffness)
 from estimator.bouc_wen_target import build_target  # noqa: E402
 from estimator.bouc_wen_kernel import bw_state  # noqa: E402
 from estimator.convergence import ess_bulk, split_rhat  # noqa: E402
@@ -321,6 +329,10 @@ def numpyro_bouc_wen(tgt, mode, n_warmup, n_samples, seed):
     from numpyro.infer import MCMC, NUTS
 
     dinc = jnp.asarray(np.diff(tgt.delta))
+    # the target's own sub-step counts (fixed for a fit: 0 = the shared step's rule) and its
+    # restarts at the first sample of each run of a concatenated record
+    mfix = jnp.asarray(tgt.msub[1:].astype(np.int32))
+    rst = jnp.asarray(tgt.restart[1:])
     Xs, ys = jnp.asarray(tgt.Xs), jnp.asarray(tgt.ys)
     cx, n_bw = tgt.cx, tgt.n
     m0, V0 = jnp.asarray(tgt.m0), jnp.asarray(tgt.V0)
@@ -335,15 +347,17 @@ def numpyro_bouc_wen(tgt, mode, n_warmup, n_samples, seed):
             ax = jnp.abs(x)
             return x + (1.0 - beta * s * ax ** (n_bw - 1) * x - gamma * ax ** n_bw) * h
 
-        def step(x, d):   # core.terms.bouc_wen_step, sub-steps and all
+        def step(x, inp):   # core.terms.bouc_wen_step, sub-steps and all
+            d, mf, restart = inp
             s = jnp.where(d >= 0.0, 1.0, -1.0)
             scale = (jnp.abs(beta) + jnp.abs(gamma)) * jnp.maximum(jnp.abs(x), 1e-3) ** (n_bw - 1)
-            m = jnp.floor(jnp.abs(d) * scale / 0.05).astype(jnp.int32) + 1
+            m = jnp.where(mf > 0, mf, jnp.floor(jnp.abs(d) * scale / 0.05).astype(jnp.int32) + 1)
             h = d / m
             x = lax.cond(m == 1, lambda x: sub(x, s, h),
                          lambda x: lax.fori_loop(0, m, lambda i, x: sub(x, s, h), x), x)
+            x = jnp.where(restart, 0.0, x)
             return x, x
-        _, xs = lax.scan(step, 0.0, dinc)
+        _, xs = lax.scan(step, 0.0, (dinc, mfix, rst))
         return jnp.concatenate([jnp.zeros(1), xs])
 
     w_hat, Lc = jnp.asarray(mode["w"]), jnp.asarray(np.linalg.cholesky(mode["cov_w"]))
@@ -382,6 +396,18 @@ def numpyro_bouc_wen(tgt, mode, n_warmup, n_samples, seed):
     return w, sec, comp
 
 
+def fit_target(sig):
+    """The collapsed target exactly as fit_bouc_wen builds it (sub-step counts fixed after a
+    first least-squares pass, the prior centred on the LS noise level) and its mode."""
+    tgt = build_target(sig)
+    ls = least_squares_fit(tgt)
+    tgt.fix_substeps(substep_stiffness(tgt, ls))
+    ls = least_squares_fit(tgt, start=ls)
+    t2 = (ls["sigma"] / tgt.sc.y) ** 2
+    tgt.set_linear_prior(conjugate_prior(5, a0=1e-3, b0=1e-3 * t2, g=1.0 / t2))
+    return tgt, posterior_mode(tgt, ls["w"])
+
+
 def section_b(n, repeats, hmc_warmup, hmc_draws, nuts_warmup, nuts_samples):
     print(f"\n(b) Eq. 11 with β, γ unknown (α fixed = 1) — our HMC vs NumPyro NUTS, N={n}; "
           f"both {CHAINS_B} chains × ({hmc_warmup} warm-up + {hmc_draws} draws)", flush=True)
@@ -391,11 +417,7 @@ def section_b(n, repeats, hmc_warmup, hmc_draws, nuts_warmup, nuts_samples):
     small = synthetic(300, seed=9)
     fit_bouc_wen(small, "hmc", chains=1, n_warmup=20, n_draws=20)
     compile_ours = time.perf_counter() - t0
-    tgt = build_target(sig)
-    ls = least_squares_fit(tgt)
-    t2 = (ls["sigma"] / tgt.sc.y) ** 2
-    tgt.set_linear_prior(conjugate_prior(5, a0=1e-3, b0=1e-3 * t2, g=1.0 / t2))
-    mode = posterior_mode(tgt, ls["w"])
+    tgt, mode = fit_target(sig)
     t0 = time.perf_counter()
     ref_mean, ref_sd, edge = grid_reference(tgt, mode)
     t_ref = time.perf_counter() - t0
@@ -503,6 +525,66 @@ def section_c(n, sg_warmup, sg_draws, mh_warmup, mh_draws, seed=0):
     return rows
 
 
+# --- (d) the Bouc–Wen fit on a protocol-rate pair, (e) the whole `rig reproduce` -------------------
+
+def protocol_pair(seed: int = 7) -> dict:
+    """Scheme 1 at 300 and 3000 r/min sampled at 20 Hz (the demo's PLC rate), prepared and
+    concatenated as `rig identify` does (the state restarts at each run)."""
+    from core.schemes import Scheme1
+    from estimator.identify import bouc_wen_signals
+    from estimator.preprocess import concat_signals, prepare
+    from simulators.config import EmulatorConfig
+    from simulators.offline import simulate
+    runs = [simulate(Scheme1(motor_speed_rpm=v), EmulatorConfig(seed=seed + i, sample_rate_hz=20.0))
+            for i, v in enumerate((300.0, 3000.0))]
+    return concat_signals([prepare(r, bouc_wen_signals(r)) for r in runs])
+
+
+def section_d(hmc_warmup, hmc_draws, nuts_warmup, nuts_samples, numpyro_ok):
+    sig = protocol_pair()
+    n = len(sig["torque"])
+    print(f"\n(d) the Bouc–Wen fit on a protocol-rate pair (scheme 1 at 300 + 3000 r/min, 20 Hz, "
+          f"N={n}): our HMC vs NumPyro NUTS on the same collapsed posterior (same sub-step "
+          f"counts, restarts and prior); both {CHAINS_B} chains × ({hmc_warmup} warm-up + "
+          f"{hmc_draws} draws)", flush=True)
+    fit = fit_bouc_wen(sig, "hmc", seed=0, chains=CHAINS_B, n_warmup=hmc_warmup,
+                       n_draws=hmc_draws, threads=min(CHAINS_B, os.cpu_count() or 1))
+    sec = fit.extra["hmc_wall_seconds"]
+    d = fit.draws[:, :, :2]
+    ess = float(np.nanmin(ess_bulk(d)))
+    ours = row("d", "ours: HMC (collapsed, analytic grad)", n, ess_s=ess / sec, run_s=sec,
+               ess=ess, rhat=float(np.nanmax(split_rhat(d))),
+               note=(f"all 7 parameters: max R-hat {np.nanmax(fit.diagnostics['rhat']):.4f}, "
+                     f"min bulk ESS {np.nanmin(fit.diagnostics['ess_bulk']):.0f}; warm-up "
+                     f"iterations at the step floor "
+                     f"{int(np.sum(fit.diagnostics['warmup_at_step_floor']))}; "
+                     f"{fit.extra['substeps_per_sample']:.2f} sub-steps per sample"))
+    if not numpyro_ok:
+        print("    NumPyro not installed (`pip install -e '.[bench]'`): no peer measured")
+        return ours, None
+    tgt, mode = fit_target(sig)
+    draws_w, sec, comp = numpyro_bouc_wen(tgt, mode, nuts_warmup, nuts_samples, seed=0)
+    nl = tgt.nl_physical_draws(draws_w)
+    ess = float(np.nanmin(ess_bulk(nl)))
+    peer = row("d", "NumPyro NUTS (collapsed, fwd-mode)", n, ess_s=ess / sec, compile_s=comp,
+               run_s=sec, ess=ess, rhat=float(np.nanmax(split_rhat(nl))),
+               note="warm-up+sampling, compiled")
+    return ours, peer
+
+
+def section_e(quick):
+    """The whole `rig reproduce` (campaign, every fit, Sobol, figures' data): wall and CPU."""
+    from api.paper_reproduction import Settings, reproduce
+    print(f"\n(e) the whole `rig reproduce{' --quick' if quick else ''}`", flush=True)
+    t0, c0 = time.perf_counter(), time.process_time()
+    rep, _ = reproduce(Settings(quick=quick))
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    parts = ", ".join(f"{k} {v:.1f} s" for k, v in rep["timings"].items() if k != "total")
+    print(f"    wall {wall:.1f} s, CPU {cpu:.1f} s ({parts}); load average before/after: see "
+          f"the header and {os.getloadavg()[0]:.1f}")
+    return {"wall_s": wall, "cpu_s": cpu}
+
+
 # --- main -----------------------------------------------------------------------------------------
 
 def main(argv=None) -> int:
@@ -511,17 +593,35 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="repeats of our HMC runs in (b) (median)")
     ap.add_argument("--exact-repeats", type=int, default=11,
                     help="repeats of our exact sampler in (a) (milliseconds each; median)")
+    ap.add_argument("--only", choices=("d", "e", "de"), default=None,
+                    help="only section (d) the Bouc–Wen pair, (e) `rig reproduce`, or both")
     args = ap.parse_args(argv)
-    import numpyro
+    print("Identification benchmark —", machine())
+    q = args.quick
+    try:
+        import numpyro
+    except ImportError:
+        numpyro = None
+    if numpyro is None:
+        print("NumPyro is not installed (`pip install -e '.[bench]'`): sections (a)–(c) need it; "
+              "(d) runs without its peer, (e) needs none")
+        section_d(200 if q else 300, 300 if q else 500, 0, 0, numpyro_ok=False)
+        section_e(q)
+        return 0
     numpyro.set_host_device_count(CHAINS_B)
     numpyro.enable_x64()
     import jax
     jax.monitoring.register_event_duration_secs_listener(_compile_listener)
-    print("Identification benchmark —", machine())
     print(f"NumPyro {numpyro.__version__}, JAX {jax.__version__} ({len(jax.devices())} host "
-          f"devices, float64); chains = {CHAINS} in (a), (c), {CHAINS_B} in (b); our BLAS "
+          f"devices, float64); chains = {CHAINS} in (a), (c), {CHAINS_B} in (b), (d); our BLAS "
           f"threads = {os.environ.get('OPENBLAS_NUM_THREADS')}")
-    q = args.quick
+    if args.only:
+        if "d" in args.only:
+            print_pair(section_d(200 if q else 300, 300 if q else 500, 200 if q else 300,
+                                 300 if q else 500, numpyro_ok=True))
+        if "e" in args.only:
+            section_e(q)
+        return 0
     a = section_a([2000, 20000] if q else [20000, 200000], args.exact_repeats,
                   200 if q else 500, 300 if q else 1000)
     b = section_b(2000 if q else 20000, args.repeats, 200 if q else 500, 300 if q else 1000,
@@ -553,7 +653,20 @@ def main(argv=None) -> int:
     print("(c) time to |mean err| ≤ 0.1 sd and sd within 10 % (s):")
     for r in c:
         print(f"    {r['sampler']:<40} {fmt(r['run_s']):>8}  ({r['note']})")
+    print_pair(section_d(200 if q else 300, 300 if q else 500, 200 if q else 300,
+                         300 if q else 500, numpyro_ok=True))
+    section_e(q)
     return 0
+
+
+def print_pair(pair) -> None:
+    ours, peer = pair
+    if peer is None:
+        return
+    print(f"{'(d) Bouc–Wen pair at 20 Hz, N=' + str(ours['N']):<46}{fmt(ours['ess_s']):>12}"
+          f"{fmt(peer['ess_s']):>15}{fmt(ours['ess_s'] / peer['ess_s']):>10}{'≥5':>9}")
+    print(f"    R-hat (β, γ) ours {rfmt(ours['rhat'])} / NumPyro {rfmt(peer['rhat'])} "
+          f"(target < 1.01)")
 
 
 if __name__ == "__main__":

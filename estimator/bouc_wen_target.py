@@ -51,7 +51,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from estimator.bouc_wen_kernel import SUPPORTED_N, _state, _state_sens, restart_mask
+from estimator.bouc_wen_kernel import (SUPPORTED_N, _state, _state_sens, restart_mask,
+                                       stiffness_bound, substep_counts)
 from estimator.exact import NIGPosterior, nig_draws, nig_posterior
 from estimator.priors import Prior, Scaling, conjugate_prior
 from core.params import JointParams
@@ -62,6 +63,9 @@ LINEAR_NAMES: tuple[str, ...] = ("k_u", "k_h", "f_v", "D+f_c", "C")
 LINEAR_UNITS: tuple[str, ...] = ("N·m/rad", "N·m/rad", "N·m", "N·m·s/rad", "N·m")
 X_COLUMN = 1
 """Index of the Bouc–Wen state x among eq11_regressor's columns."""
+MAX_FIXED_SUBSTEP = 1.0
+"""Guard with fixed sub-step counts: K·h above this on a sub-step is outside the target (20× the
+stiffness the counts were fixed for)."""
 MAX_STIFFNESS_STEP = 100.0
 """Guard: (|β|+|γ|)·|x|^(n−1)·max|ΔΔ| above this is outside the target (≳ 2000 sub-steps per
 sample)."""
@@ -138,6 +142,9 @@ class BoucWenTarget:
         self.restart = restart_mask(self.delta.size, run)
         steps = np.abs(np.diff(self.delta))
         self.max_step = float(np.max(np.where(self.restart[1:], 0.0, steps)))
+        self.msub = np.zeros(self.delta.size, dtype=np.int64)   # the shared step's own rule
+        self.substep_stiffness: float | None = None
+        self._max_substep = 0.0
         self.k = 3 if free_alpha else 2
         self.prior = prior
         self.nl_mean = np.asarray(prior.nl_mean, dtype=float)
@@ -197,13 +204,33 @@ class BoucWenTarget:
         J[1:, 1:] = J2
         return J
 
+    def fix_substeps(self, stiffness: float | None) -> None:
+        """Fix the recursion's sub-step count per sample interval for the rest of the fit: the
+        shared step's rule at the stiffness bound K* = `stiffness` [rad^-1]
+        (estimator.bouc_wen_kernel.substep_counts), so that the state, and the log density, are
+        smooth in (α, β, γ); None restores the step's own rule (counts that follow (β, γ))."""
+        if stiffness is None:
+            self.msub = np.zeros(self.delta.size, dtype=np.int64)
+            self.substep_stiffness, self._max_substep = None, 0.0
+            return
+        self.msub = substep_counts(self.delta, float(stiffness))
+        self.msub[self.restart] = 0
+        inner = ~self.restart[1:]
+        self.substep_stiffness = float(stiffness)
+        self._max_substep = float(np.max(np.abs(np.diff(self.delta))[inner]
+                                         / self.msub[1:][inner])) if inner.any() else 0.0
+
     def _guard(self, a: float, b: float, g: float) -> bool:
         """The integrator's sub-step scale (|β|+|γ|)·|x|^(n−1)·max|ΔΔ| (|x| at most the
-        saturation (α/(β+γ))^(1/n), floored at 1e-3 as in the step) is at most 100."""
+        saturation (α/(β+γ))^(1/n), floored at 1e-3 as in the step) is at most 100; with fixed
+        sub-step counts, also K·h ≤ MAX_FIXED_SUBSTEP on every sub-step (the explicit step stays
+        monotone: beyond it x overshoots its saturation)."""
         if not (math.isfinite(a + b + g) and a > 0.0 and b + g > 0.0):
             return False
-        xmag = 1.0 if self.n == 1 else max((a / (b + g)) ** (1.0 / self.n), 1e-3) ** (self.n - 1)
-        return (abs(b) + abs(g)) * xmag * self.max_step <= MAX_STIFFNESS_STEP
+        kx = stiffness_bound(a, b, g, self.n)
+        if self.substep_stiffness is not None and kx * self._max_substep > MAX_FIXED_SUBSTEP:
+            return False
+        return kx * self.max_step <= MAX_STIFFNESS_STEP
 
     def log_prior_w(self, w: np.ndarray) -> tuple[float, np.ndarray]:
         """log p(w) (normal priors on the physical parameters + log Jacobian) and gradient."""
@@ -222,7 +249,8 @@ class BoucWenTarget:
     # --- model pieces -----------------------------------------------------------------------
     def state(self, w: np.ndarray) -> np.ndarray:
         a, b, g = self.physical(w)
-        return _state(self.delta, self.x0, a, b, g, self.n, self.restart)  # validated in __init__
+        return _state(self.delta, self.x0, a, b, g, self.n, self.restart,  # validated in __init__
+                      self.msub)
 
     def scaled_regressor(self, x: np.ndarray) -> np.ndarray:
         X = self.Xs.copy()
@@ -254,7 +282,8 @@ class BoucWenTarget:
         a, b, g = self.physical(w)
         if not self._guard(a, b, g):
             return -np.inf, np.zeros_like(w)
-        x, S = _state_sens(self.delta, self.x0, a, b, g, self.n, self.restart)
+        x, S = _state_sens(self.delta, self.x0, a, b, g, self.n, self.restart,
+                               self.msub)
         X = getattr(self._tls, "X", None)
         if X is None:   # column-major: the x column is contiguous, X·v and Xᵀy are faster
             X = self._tls.X = np.asfortranarray(self.Xs)
@@ -287,7 +316,8 @@ class BoucWenTarget:
         a, b, g = self.physical(w)
         if not self._guard(a, b, g):
             return out
-        x, S = _state_sens(self.delta, self.x0, a, b, g, self.n, self.restart)
+        x, S = _state_sens(self.delta, self.x0, a, b, g, self.n, self.restart,
+                               self.msub)
         if idx is None:
             Xb, yb, Sb, scale = self.scaled_regressor(x), self.ys, S, 1.0
         else:

@@ -1,10 +1,11 @@
-"""Text tables in the layout of the paper's Section V: parameter tables (Tables 3, 4, 5 and 8: one
+"""Tables (plain text, or HTML for the report pages) in the layout of the paper's Section V: parameter tables (Tables 3, 4, 5 and 8: one
 row per parameter, the methods side by side with their intervals, RMSE underneath), mean
 autocorrelation (Table 6), average R-hat (Table 7), RMSE comparison (Table 9) and a sampling
 efficiency table (ours: ESS, ESS/s, acceptance)."""
 
 from __future__ import annotations
 
+import html as _html
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -32,7 +33,16 @@ def _label(fit: Fit) -> str:
     return METHOD_LABELS.get(fit.method, fit.method.upper())
 
 
-def _grid(header: Sequence[str], rows: Sequence[Sequence[str]], title: str | None) -> str:
+def _grid(header: Sequence[str], rows: Sequence[Sequence[str]], title: str | None,
+          html: bool = False) -> str:
+    """The table as aligned plain text, or (html) as an HTML table with its title as caption."""
+    if html:
+        esc = _html.escape
+        cap = f"<caption>{esc(title)}</caption>" if title else ""
+        head = "".join(f"<th>{esc(str(h))}</th>" for h in header)
+        body = "".join("<tr>" + "".join(f"<td>{esc(str(c))}</td>" for c in r) + "</tr>"
+                       for r in rows)
+        return f'<table class="paper">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
     cols = list(zip(header, *rows)) if rows else [(h,) for h in header]
     widths = [max(len(str(c)) for c in col) for col in cols]
     line = lambda cells: "  ".join(str(c).ljust(w) for c, w in zip(cells, widths)).rstrip()
@@ -44,7 +54,8 @@ def _grid(header: Sequence[str], rows: Sequence[Sequence[str]], title: str | Non
 
 
 def parameter_table(fits: Sequence[Fit], title: str | None = None,
-                    descriptions: Mapping[str, str] | None = None, units: bool = True) -> str:
+                    descriptions: Mapping[str, str] | None = None, units: bool = True,
+                    html: bool = False) -> str:
     """Tables 3/4/5/8: No. | Parameter | [Description] | Unit | per method: estimate and its
     95 % interval (confidence for LS, credible otherwise); then σ and the RMSE (Eq. 17) on the
     training and held-out data. Fits must share parameter names (a fit lacking one shows —)."""
@@ -77,10 +88,11 @@ def parameter_table(fits: Sequence[Fit], title: str | None = None,
                   ["RMSE train"] + pad + sum([[num(f.rmse_train), ""] for f in fits], [])]
     if any(f.rmse_test is not None for f in fits):
         extra_rows.append(["RMSE test"] + pad + sum([[num(f.rmse_test), ""] for f in fits], []))
-    return _grid(header, rows + extra_rows, title)
+    return _grid(header, rows + extra_rows, title, html)
 
 
-def autocorr_table(fits: Sequence[Fit], title: str = "Mean autocorrelation (lags 1–50)") -> str:
+def autocorr_table(fits: Sequence[Fit], title: str = "Mean autocorrelation (lags 1–50)",
+                   html: bool = False) -> str:
     """Table 6: one row per sampler, one column per parameter number."""
     fits = [f for f in fits if "mean_autocorr" in f.diagnostics]
     if not fits:
@@ -89,11 +101,11 @@ def autocorr_table(fits: Sequence[Fit], title: str = "Mean autocorrelation (lags
     header = ["No."] + [str(i) for i in range(1, p + 1)]
     rows = [[_label(f)] + [f"{v:.3e}" for v in np.asarray(f.diagnostics["mean_autocorr"])[:p]]
             for f in fits]
-    return _grid(header, rows, title)
+    return _grid(header, rows, title, html)
 
 
-def rhat_table(fits: Sequence[Fit], title: str = "R-hat (average over the every-200 trace; final)"
-               ) -> str:
+def rhat_table(fits: Sequence[Fit], title: str = "R-hat (average over the every-200 trace; final)",
+               html: bool = False) -> str:
     """Table 7: average of the R-hat trace (Figs. 16–17) per parameter, and the final value."""
     fits = [f for f in fits if "rhat" in f.diagnostics]
     if not fits:
@@ -108,11 +120,11 @@ def rhat_table(fits: Sequence[Fit], title: str = "R-hat (average over the every-
         rows.append([f"{_label(f)} (avg)"] + [f"{v:.4f}" for v in avg[:p]])
         rows.append([f"{_label(f)} (final)"] + [f"{v:.4f}" for v in
                                                 np.asarray(f.diagnostics["rhat"])[:p]])
-    return _grid(header, rows, title)
+    return _grid(header, rows, title, html)
 
 
 def rmse_table(fits_by_model: Mapping[str, Sequence[Fit]],
-               title: str = "RMSE (Eq. 17) comparison") -> str:
+               title: str = "RMSE (Eq. 17) comparison", html: bool = False) -> str:
     """Table 9: one row per model, one column per method (train RMSE; test in parentheses)."""
     methods: list[str] = []
     for fits in fits_by_model.values():
@@ -130,10 +142,11 @@ def rmse_table(fits_by_model: Mapping[str, Sequence[Fit]],
                 row.append(num(f.rmse_train) + ("" if f.rmse_test is None
                                                  else f" ({num(f.rmse_test)})"))
         rows.append(row)
-    return _grid(header, rows, title)
+    return _grid(header, rows, title, html)
 
 
-def efficiency_table(fits: Sequence[Fit], title: str = "Sampling efficiency") -> str:
+def efficiency_table(fits: Sequence[Fit], title: str = "Sampling efficiency",
+                     html: bool = False) -> str:
     """Per Bayesian fit: min bulk/tail ESS, max R-hat, seconds, min ESS/s, acceptance rate and,
     for linear models, the largest distance to the exact posterior."""
     header = ["Method", "min ESS bulk", "min ESS tail", "max R-hat", "seconds", "min ESS/s",
@@ -156,24 +169,25 @@ def efficiency_table(fits: Sequence[Fit], title: str = "Sampling efficiency") ->
         rows.append([_label(f), f"{np.nanmin(d['ess_bulk']):.0f}", f"{np.nanmin(d['ess_tail']):.0f}",
                      f"{np.nanmax(d['rhat']):.4f}", f"{f.timings.get('sample', float('nan')):.3f}",
                      num(d.get("min_ess_per_s")), acc_s, me, srs])
-    return _grid(header, rows, title) if rows else ""
+    return _grid(header, rows, title, html) if rows else ""
 
 
-def sobol_table(table, title: str = "Sobol indices") -> str:
+def sobol_table(table, title: str = "Sobol indices", html: bool = False) -> str:
     """First-order and total-effect indices (Eqs. 18–19) with their confidence half-widths, from
     estimator.sobol's result table (columns name, S1, S1_conf, ST, ST_conf)."""
     rows = [[str(n), f"{s1:.4f}", f"±{c1:.4f}", f"{st:.4f}", f"±{ct:.4f}"]
             for n, s1, c1, st, ct in zip(table["name"], table["S1"], table["S1_conf"],
                                          table["ST"], table["ST_conf"])]
-    return _grid(["Parameter", "First order", "", "Total effect", ""], rows, title)
+    return _grid(["Parameter", "First order", "", "Total effect", ""], rows, title, html)
 
 
-def report(fits: Sequence[Fit], title: str | None = None) -> str:
-    """The full text report of one model fitted by several methods."""
+def report(fits: Sequence[Fit], title: str | None = None, html: bool = False) -> str:
+    """The full report of one model fitted by several methods, as text or (html) HTML tables."""
     descriptions = fits[0].extra.get("descriptions") if fits else None
-    parts = [parameter_table(fits, title, descriptions)]
+    parts = [parameter_table(fits, title, descriptions, html=html)]
     bayes = [f for f in fits if f.method != "ls"]
-    for t in (efficiency_table(bayes), autocorr_table(bayes), rhat_table(bayes)):
+    for t in (efficiency_table(bayes, html=html), autocorr_table(bayes, html=html),
+              rhat_table(bayes, html=html)):
         if t:
             parts.append(t)
-    return "\n\n".join(parts)
+    return ("" if html else "\n\n").join(parts)
