@@ -22,7 +22,13 @@ def run(args: argparse.Namespace) -> int:
     from core.redact import redact_secrets
 
     st = Settings.from_env(host=args.host, port=args.port, workers=args.workers, db_url=args.db)
-    print(f"serving on http://{st.host}:{st.port} (docs at /docs), {st.workers} job workers, "
+    print(f"serving on http://{st.host}:{st.port} (the operator console at /, docs at /docs), "
+          f"{st.workers} job workers, "
           f"database {redact_secrets(st.db_url)}", flush=True)
-    uvicorn.run(create_app(st), host=st.host, port=st.port, log_level="info")
+    from core.logging_setup import json_requested
+    # JSON logs asked for (--log-json / RIG_LOG_FORMAT=json): uvicorn's loggers get no
+    # handlers of their own and propagate to the root logger's JSON handler
+    # (core/logging_setup.py); otherwise uvicorn's usual access and error lines
+    extra = {"log_config": None} if json_requested(getattr(args, "log_json", False)) else {}
+    uvicorn.run(create_app(st), host=st.host, port=st.port, log_level="info", **extra)
     return 0

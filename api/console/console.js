@@ -168,13 +168,28 @@ const live = { plots: [], t0: null, lastEvent: 0, away: null };
 
 function buildLivePlots() {
   const box = $("live-plots"); box.replaceChildren();
+  live.twin = new Plot(box, "Live twin: joint torque measured vs the rig model's prediction", "kN·m",
+                       ["measured", "predicted", "residual"]);
+  live.twin.box.id = "twin-plot";
   live.plots = LIVE_GROUPS.map(([title, unit, chans]) =>
     ({ plot: new Plot(box, title, unit, chans.map((c) => c[1])), chans }));
+  loadRigModel();
+}
+
+async function loadRigModel() {
+  try {
+    state.rigModel = await api("/rig-model");
+    $("rig-model").textContent = `rig model: fit ${state.rigModel.fit_id} (${state.rigModel.model}, ${state.rigModel.method}), marked by ${state.rigModel.marked_by}`;
+  } catch (e) {
+    state.rigModel = null;
+    $("rig-model").textContent = "no rig model marked (mark a fit on the Jobs tab): the live twin is off";
+  }
 }
 
 function redrawLive() {
   if ($("live").hidden) return;
   for (const p of live.plots) p.plot.draw();
+  if (live.twin) { live.twin.draw(); $("twin-plot").dataset.points = String(live.twin.points()); }
   $("live-plots").dataset.points = String(live.plots.reduce((n, p) => n + p.plot.points(), 0));
 }
 
@@ -191,6 +206,12 @@ async function pollAcquisitions() {
     ? active.id : (cur || (state.acqs[0] && state.acqs[0].id));
   if (want) sel.value = want;
   if (want && want !== state.acqId) follow(want);
+  else if (state.acqId) {
+    // the list is the fallback truth: a state the event stream has not delivered (e.g. the end of
+    // a run while the stream was reconnecting) is shown from it
+    const cur = state.acqs.find((a) => a.id === state.acqId);
+    if (cur && $("acq-state").textContent !== cur.state) showAcq(cur);
+  }
 }
 
 function acqState(id) { const a = state.acqs.find((x) => x.id === id); return a ? a.state : null; }
@@ -203,6 +224,9 @@ function showAcq(a) {
     $("acq-run").append(` ended ${a.run_status || ""}${a.reason ? " — " + a.reason : ""}`);
     $("acq-run").dataset.final = a.run_status || "";
     $("acq-run").dataset.reason = a.reason || "";
+    if (a.run_id && state.rigModel && hasRole("operator"))
+      $("acq-run").append(" ", el("button", { id: "diagnose-run", text: "Diagnose against the rig model",
+        onclick: () => diagnoseAgainstRigModel(a.run_id) }));
   }
   const stop = $("stop"); if (stop) stop.disabled = !ACTIVE.includes(a.state);
   const rows = [["target", a.target], ["operator", a.operator], ["parameters", JSON.stringify(a.params)],
@@ -211,9 +235,18 @@ function showAcq(a) {
 }
 
 function onProgress(p) {
+  if (p.sent_at) {          // the event's delivery latency (one machine, one clock), kept for the load bench
+    (window.__latencies = window.__latencies || []).push(Date.now() / 1000 - p.sent_at);
+    if (window.__latencies.length > 100000) window.__latencies.shift();
+  }
   $("acq-phase").textContent = p.phase ? `phase ${p.phase}` : "";
   $("acq-progress").value = p.fraction || 0;
   const ch = p.channels || {};
+  if (p.twin && live.twin) {
+    if (p.twin.measured !== undefined) live.twin.push(0, p.t, p.twin.measured * 1e-3);
+    live.twin.push(1, p.t, p.twin.predicted * 1e-3);
+    if (p.twin.residual !== undefined) live.twin.push(2, p.t, p.twin.residual * 1e-3);
+  }
   for (const { plot, chans } of live.plots) chans.forEach(([key, , scale], i) => {
     if (key in ch && ch[key] !== null) plot.push(i, p.t, ch[key] * scale);
   });
@@ -488,6 +521,15 @@ async function downloadRun() {
   setTimeout(() => URL.revokeObjectURL(url), 10000);
 }
 
+async function diagnoseAgainstRigModel(runId) {
+  const m = state.rigModel;
+  try {
+    await api("/jobs", { method: "POST", json: { kind: "diagnosis", params: {
+      run_ids: m.training_run_ids.filter((i) => i !== runId), test_run_ids: [runId], model: m.model } } });
+    showTab("jobs");
+  } catch (e) { banner(`Diagnosis job refused: ${e.message}`, true); }
+}
+
 // --- jobs -------------------------------------------------------------------------------------
 let jobsTimer = null;
 
@@ -504,6 +546,10 @@ async function loadJobs() {
     el("td", { text: j.created_at ? new Date(j.created_at).toLocaleString() : "" }),
     el("td", { text: [...(j.params.run_ids || []), ...(j.params.test_run_ids || []).map((x) => `${x}*`)].join(", ") }),
     el("td", {}, ...(j.state === "succeeded" ? [el("button", { text: "Report", onclick: () => openReport(j.id) })] : []),
+      ...(j.state === "succeeded" && j.kind === "identification" && hasRole("operator") && j.result_ids.length
+        ? [el("button", { text: "Mark as rig model", class: "mark-model", onclick: () => api("/rig-model", { method: "PUT", json: { fit_id: j.result_ids[0] } })
+            .then((m) => { state.rigModel = m; banner(`Fit ${m.fit_id} is now the rig's model (the live twin predicts with it).`); })
+            .catch((e) => banner(e.message, true)) })] : []),
       ...(hasRole("operator") && ["queued", "running"].includes(j.state) ? [el("button", { text: "Cancel", onclick: () => api(`/jobs/${j.id}/cancel`, { method: "POST" }).then(loadJobs) })] : [])))));
   clearTimeout(jobsTimer);
   if (!$("jobs").hidden) jobsTimer = setTimeout(loadJobs, 2000);
