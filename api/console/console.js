@@ -307,11 +307,23 @@ async function readEvents(body, onEvent) {
 }
 
 async function estopAll() {
+  // An e-stop must get through: a request lost on a connection that just dropped (a POST is never
+  // retried by the browser itself) is sent again, up to 10 times over ~3 s, and a failure is said.
   const targets = state.acqs.filter((a) => ACTIVE.includes(a.state));
-  await Promise.all(targets.map((a) => api(`/acquisitions/${a.id}/estop`, { method: "POST",
-    json: { reason: `e-stop from the console by ${state.me ? state.me.name : "?"}` } })
-    .catch((e) => banner(`E-stop of acquisition ${a.id} failed: ${e.message}`, true))));
-  banner(`E-STOP sent to ${targets.length} acquisition(s) at ${new Date().toLocaleTimeString()}.`, true);
+  const reason = `e-stop from the console by ${state.me ? state.me.name : "?"}`;
+  const send = async (a) => {
+    let last = null;
+    for (let k = 0; k < 10; k++) {
+      try { await api(`/acquisitions/${a.id}/estop`, { method: "POST", json: { reason } }); return null; }
+      catch (e) { last = e; if (e instanceof ApiError && e.status !== 503) break; }
+      await new Promise((res) => setTimeout(res, 300));
+    }
+    return `acquisition ${a.id.slice(0, 8)}: ${last ? last.message : "no answer"}`;
+  };
+  const failed = (await Promise.all(targets.map(send))).filter(Boolean);
+  const when = new Date().toLocaleTimeString();
+  if (failed.length) banner(`E-STOP FAILED at ${when} for ${failed.join("; ")} — use the rig's hardware e-stop`, true);
+  else banner(`E-STOP sent to ${targets.length} acquisition(s) at ${when}.`, true);
   pollAcquisitions();
 }
 
