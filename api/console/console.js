@@ -230,7 +230,7 @@ function showAcq(a) {
   }
   const stop = $("stop"); if (stop) stop.disabled = !ACTIVE.includes(a.state);
   const rows = [["target", a.target], ["operator", a.operator], ["parameters", JSON.stringify(a.params)],
-                ["stand-in", a.standin ? JSON.stringify(a.standin) : "—"], ["requests", (a.requests || []).join(", ") || "—"]];
+                ["stand-in", a.standin ? JSON.stringify(a.standin) : "—"], ["requests", (a.requests || []).map((r) => `${r.command} by ${r.by}${r.at ? " at " + r.at : ""}`).join("; ") || "—"]];
   $("acq-details").replaceChildren(...rows.map(([k, v]) => el("tr", {}, el("td", { text: k }), el("td", { text: v }))));
 }
 
