@@ -117,7 +117,14 @@ def list_jobs(store: Store, state: str | None = None, kind: str | None = None,
     if kind:
         q = q.where(Job.kind == kind)
     with store.ReadSession() as s:
-        return [job_dict(j) for j in s.execute(q).scalars()]
+        jobs = list(s.execute(q).scalars())
+        results: dict[int, list[int]] = {}
+        if jobs:
+            for rid, jid in s.execute(select(Result.id, Result.job_id)
+                                      .where(Result.job_id.in_([j.id for j in jobs]))
+                                      .order_by(Result.id)):
+                results.setdefault(jid, []).append(rid)
+        return [job_dict(j, results.get(j.id)) for j in jobs]
 
 
 def cancel(store: Store, job_id: int) -> dict[str, Any] | None:

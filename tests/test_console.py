@@ -106,3 +106,19 @@ def api(tmp_path_factory):
     from api_fixtures import _api, database
     with database("sqlite", tmp_path_factory) as url:
         yield from _api(url)
+
+
+def test_the_job_list_names_each_jobs_results(api):
+    """The console offers "Mark as rig model" from the job list: the list carries each job's
+    stored results, as GET /jobs/{id} does."""
+    from api_fixtures import drain
+
+    r = api.client.post("/jobs", headers=api.h("operator"), json={
+        "kind": "identification",
+        "params": {"run_ids": [api.runs["fast"]], "model": "eq4", "method": "ls"}})
+    assert r.status_code == 202, r.text
+    drain(api)
+    one = get(api, r.headers["location"])
+    listed = next(j for j in get(api, "/jobs") if j["id"] == one["id"])
+    assert one["state"] == "succeeded" and one["result_ids"]
+    assert listed["result_ids"] == one["result_ids"]
