@@ -50,12 +50,8 @@ def export_fit(store, fit_id: int, out_dir, draws: bool = False):
 def run(args: argparse.Namespace) -> int:
     import json
     import sys
-    from pathlib import Path
 
     from db.store import RunNotFound, Store
-    from core.channels import unit_of
-    from core.run import RunData
-    from core.runfile import write_run
 
     if (args.run_id is None) == (args.fit is None):
         print("rig export: give a run id or --fit ID (one of them)", file=sys.stderr)
@@ -68,21 +64,13 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(json.dumps({"fit": args.fit, "files": [str(path)]}) if args.json else path)
         return 0
+    from db.run_export import export_run
     with Store(args.db) as store:
         try:
-            run_data = store.load_run(args.run_id)
+            paths = export_run(store, args.run_id, args.out, args.format)
         except RunNotFound:
             print(f"no run {args.run_id}", file=sys.stderr)
             return 1
-        channels = store.channels(args.run_id)
-    meta = dict(run_data.meta)
-    units = dict(meta.get("units") or {})
-    extra = {c["name"]: c["unit"] for c in channels
-             if c["unit"] and c["unit"] != unit_of(c["name"]) and units.get(c["name"]) != c["unit"]}
-    if extra:
-        meta["units"] = {**units, **extra}
-    paths = write_run(RunData(samples=run_data.samples, meta=meta),
-                      Path(args.out) / f"run-{args.run_id}", fmt=args.format)
     if args.json:
         print(json.dumps({"run": args.run_id, "format": args.format,
                           "files": [str(p) for p in paths]}))
