@@ -54,9 +54,10 @@ def test_simulate_scheme3_parquet_and_bad_options(tmp_path, capsys):
     assert run.meta["scheme"] == 3 and run.meta["motor_speed_rpm"] is None
     assert run.meta["excitation"]["cond"] < run.meta["excitation"]["random_cond_median"]
     assert set(run.samples["phase"]) == {"idle", "excite"}
-    assert main(["simulate", "scheme2", "--effect", "cogging", "--out",
-                 str(tmp_path / "x.csv")]) == 2
-    assert "unknown effect" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as refused:        # a usage error: exit 2, said on stderr
+        main(["simulate", "scheme2", "--effect", "cogging", "--out", str(tmp_path / "x.csv")])
+    assert refused.value.code == 2
+    assert "unknown effect" in capsys.readouterr().err
     assert main(["simulate", "scheme2", "--param", "nope=1", "--out",
                  str(tmp_path / "x.csv")]) == 2
     with pytest.raises(SystemExit):
