@@ -13,8 +13,8 @@ explicit `event` type) from its stdout. The database URL goes to it by environme
 has any URL password masked (core.redact).
 
 Progress and the run id come from the events (`progress`, `run_created`, relayed from `rig
-run`, every 0.25 s with the key channels of the latest sample): no database polling, and they
-arrive whether or not the writer's commits are visible yet. The final state comes from SQL —
+run`, every 0.25 s with every numeric channel of the latest sample): no database polling, and
+they arrive whether or not the writer's commits are visible yet. The final state comes from SQL —
 the run's row written by the engine is the record of truth — read once the processes have
 ended. The service stops its acquisitions when it shuts down (AcquisitionManager.shutdown).
 """

@@ -74,6 +74,17 @@ def limit_set_named(name: str) -> LimitSet:
 
 MAX_PHASE_TIME = 600.0
 """Longest idle, ramp, settle, hold or pause a scheme may ask for [s]."""
+MAX_RUN_TIME = 3600.0
+"""Longest run a scheme may ask for [s of rig time] (the paper's runs take 100–400 s): a run's
+set points, samples and documents grow with its length, so a request for a run of days (a
+ramp rate near zero with the joint at rest) is refused before anything is allocated."""
+
+
+def _check_run_time(scheme: Any) -> None:
+    d = scheme.duration()
+    if not math.isfinite(d) or d > MAX_RUN_TIME:
+        raise ValueError(f"scheme {scheme.scheme} would run {d:.3g} s, beyond the longest run "
+                         f"of {MAX_RUN_TIME:g} s: raise ramp_rate or shorten its phases")
 
 
 @dataclass(frozen=True)
@@ -197,6 +208,7 @@ class _LoadingScheme(abc.ABC):
             raise ValueError(f"load_target {self.load_target:g} N·m is beyond the "
                              f"{limits.name!r} limit set's {limits.max_load:g} N·m "
                              f"({limits.purpose})")
+        _check_run_time(self)
 
     # --- given by each scheme ---------------------------------------------------------------
     @abc.abstractmethod
@@ -394,6 +406,7 @@ class Scheme3:
 
     def __post_init__(self) -> None:
         _check_bounds(self)
+        _check_run_time(self)
         if self.coefficients is not None:
             a, b, q0 = self.coefficients
             object.__setattr__(self, "coefficients",

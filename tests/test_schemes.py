@@ -241,3 +241,16 @@ def test_rig_run_spec_is_the_same_run_as_the_flags(tmp_path, monkeypatch):
     monkeypatch.setattr(sys, "stdin", stdin)
     assert cmd_run.run_spec(parser.parse_args(["--spec", "-", "--control-stdin"])) == flags
     assert stdin.read() == "stop\n"
+
+
+@pytest.mark.parametrize("number,params", [
+    (1, {"motor_speed_rpm": 1.0, "ramp_rate": 1e-9}),      # a ramp of millennia
+    (2, {"motor_speed_rpm": 1.0, "ramp_rate": 1e-9}),
+])
+def test_a_run_longer_than_an_hour_is_refused_before_anything_is_allocated(number, params):
+    """A schema-valid request for a run of days (found by the API fuzz: it made the acquisition
+    allocate ~24 GB) is refused with the reason, by the scheme itself."""
+    from core.schemes import MAX_RUN_TIME, SCHEMES
+    with pytest.raises(ValueError, match="longest run"):
+        SCHEMES[number](**params)
+    assert SCHEMES[number]().duration() < MAX_RUN_TIME       # the paper's runs fit

@@ -189,7 +189,8 @@ def _progress_event(acq: Acquisition) -> dict[str, Any]:
 
 @router.get("/acquisitions/{acq_id}/events", response_class=EventSourceResponse,
             summary="Server-sent events: `state` on each change, `progress` (phase, fraction, "
-                    "live key channels) about every 0.25 s, `end` with the run's final status")
+                    "live channels, the live twin) about every 0.25 s, `end` with the run's "
+                    "final status")
 async def acquisition_events(_: Viewer, acq: Acq,
                              request: Request) -> AsyncIterable[ServerSentEvent]:
     seen_version, seen_state, seen_progress = -1, None, None
