@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from estimator.plots import _emit, sobol_bars, subplots
+from estimator.plots import _emit, draw_rhat_trace, sobol_bars, subplots
 
 
 def _loop(d: dict[str, Any]) -> bytes:
@@ -29,16 +29,8 @@ def _loop(d: dict[str, Any]) -> bytes:
 def _traces(traces: dict[str, Any]) -> bytes:
     fig, axes = subplots(2, len(traces), figsize=(5 * len(traces), 6.4), squeeze=False)
     for k, (m, tr) in enumerate(traces.items()):
-        its, r = np.asarray(tr["iterations"]), np.asarray(tr["rhat"], float)
-        ax = axes[0, k]
-        if r.size:
-            for j, n in enumerate(tr["names"]):
-                ax.plot(its, r[:, j], marker=".", lw=1, label=n)
-        ax.axhline(1.01, color="0.5", ls=":", lw=1)
-        ax.set_xlabel("iterations per chain")
-        ax.set_ylabel("split R-hat")
-        ax.set_title(f"Eq. 11 — {m.upper()}: R-hat every 200 iterations", fontsize=10)
-        ax.legend(fontsize=6)
+        draw_rhat_trace(axes[0, k], tr["iterations"], tr["rhat"], tr["names"],
+                        f"Eq. 11 — {m.upper()}: R-hat every 200 iterations", legend_size=6)
         acf = np.asarray(tr["autocorr"], float)
         ax = axes[1, k]
         for j, n in enumerate(tr["names"]):

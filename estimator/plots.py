@@ -127,6 +127,20 @@ def corner_plot(fit: Fit, bins: int = 40, max_points: int = 2000, path: str | Pa
     return _emit(fig, path, fmt)
 
 
+def draw_rhat_trace(ax, iterations, rhat, names, title: str, legend_size: int = 7) -> None:
+    """One axes of split R-hat against iterations per chain (Figs. 16–17), one line per
+    parameter, with the 1.01 convergence line."""
+    its, r = np.asarray(iterations), np.asarray(rhat, dtype=float)
+    if r.size:
+        for j, n in enumerate(names):
+            ax.plot(its, r[:, j], marker=".", lw=1, label=n)
+    ax.axhline(1.01, color="0.5", ls=":", lw=1)
+    ax.set_xlabel("iterations per chain")
+    ax.set_ylabel("split R-hat")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=legend_size)
+
+
 def rhat_trace_plot(fits: Sequence[Fit], path: str | Path | None = None, fmt: str = "svg"
                     ) -> bytes | Path:
     """Split R-hat computed every 200 iterations, one line per parameter, one panel per fit."""
@@ -136,14 +150,8 @@ def rhat_trace_plot(fits: Sequence[Fit], path: str | Path | None = None, fmt: st
     fig, axes = subplots(1, len(fits), figsize=(5 * len(fits), 3.4), squeeze=False)
     for ax, f in zip(axes.flat, fits):
         tr = f.diagnostics["rhat_trace"]
-        its, r = np.asarray(tr["iterations"]), np.asarray(tr["rhat"])
-        for j, n in enumerate(f.param_names):
-            ax.plot(its, r[:, j], marker=".", lw=1, label=n)
-        ax.axhline(1.01, color="0.5", ls=":", lw=1)
-        ax.set_xlabel("iterations per chain")
-        ax.set_ylabel("split R-hat")
-        ax.set_title(f"{f.model} — {f.method}", fontsize=10)
-        ax.legend(fontsize=7)
+        draw_rhat_trace(ax, tr["iterations"], tr["rhat"], f.param_names,
+                        f"{f.model} — {f.method}", legend_size=7)
     fig.tight_layout()
     return _emit(fig, path, fmt)
 
