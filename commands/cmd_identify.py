@@ -12,7 +12,11 @@ run, `rig export --fit ID` writes one as JSON.
 
 --json prints Fit.as_dict() (a list when several methods were asked for), with `fit_id` when it
 was stored; --out DIR writes fit_<method>.json, report.txt and the figures (predicted vs
-measured, posterior histograms, corner plot, autocorrelation, R-hat trace) as SVG."""
+measured, posterior histograms, corner plot, autocorrelation, R-hat trace) as SVG.
+
+While the samplers run, stderr shows one bar per chain (commands.progress.ChainBars: count, rate,
+time left, warm-up or sampling), or plain lines when stderr is not a terminal; stdout carries
+the result alone."""
 
 from __future__ import annotations
 
@@ -121,7 +125,9 @@ def _run(args: argparse.Namespace, store) -> int:
 
     import numpy as np
 
+    from commands.progress import ChainBars
     from estimator.identify import identify_detailed
+    from estimator.sampler_progress import reporting
     from estimator.preprocess import PrepOptions
     from estimator.tables import report
     from core.runfile import RunFileError
@@ -149,7 +155,10 @@ def _run(args: argparse.Namespace, store) -> int:
             opts["draws"] = args.draws
         if args.warmup is not None:
             opts["warmup"] = args.warmup
-        results = [identify_detailed(train, model, m, test, **dict(opts)) for m in methods]
+        results = []
+        for m in methods:
+            with ChainBars(m) as bars, reporting(bars):
+                results.append(identify_detailed(train, model, m, test, **dict(opts)))
     except (RunFileError, OSError, ValueError, KeyError, TypeError) as e:
         print(f"rig identify: {e}", file=sys.stderr)
         return 2

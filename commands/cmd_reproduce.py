@@ -2,7 +2,8 @@
 fits of Tables 3, 4, 8 and 9, Sobol indices (Figs. 21–24), R-hat traces and autocorrelations,
 scheme 3's condition number (Fig. 6) and the Table 11 indicators — printed as one report with
 each table next to the paper's values and the ratio, and written as a page with its figures and
-as JSON (api.paper_reproduction; the `reproduction` job kind stores the same report)."""
+as JSON (api.paper_reproduction; the `reproduction` job kind stores the same report). While the
+samplers run, stderr shows one bar per chain of each fit in turn (commands.progress.ChainBars)."""
 
 from __future__ import annotations
 
@@ -32,9 +33,12 @@ def run(args: argparse.Namespace) -> int:
     from api.paper_reproduction import Settings, report_text, reproduce
     from api.reports import reproduction_html
     from api.reproduction_plots import reproduction_figures
+    from commands.progress import ChainBars
     from core.jsonsafe import json_safe
+    from estimator.sampler_progress import reporting
 
-    report, fits = reproduce(Settings(quick=args.quick, seed=args.seed))
+    with ChainBars("fit", numbered=True) as bars, reporting(bars):   # stderr: a bar per chain
+        report, fits = reproduce(Settings(quick=args.quick, seed=args.seed))
     report = json_safe(report)
     stored: list[int] = []
     if not args.no_store:       # as the reproduction job stores them: the report with the first fit

@@ -10,11 +10,18 @@ short command leaves its log alone.
         for f in files:
             ...
             bar.update(1)
+
+The samplers' chains (estimator.sampler_progress's callback) are drawn by ChainBars, one bar per
+chain:
+
+    with ChainBars("mh") as bars, reporting(bars):
+        fit = identify(...)
 """
 
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from typing import IO, Any
 
@@ -110,3 +117,81 @@ class Counter:
         if self.bar is not None:
             self.bar.close()
             self.bar = None
+
+
+PHASE_NAMES = {"warmup": "warm-up", "sampling": "sampling"}
+"""The samplers' phases (estimator.sampler_progress) as the bars name them."""
+
+
+class ChainBars:
+    """The estimator.sampler_progress callback of a command: one bar per chain, each with its
+    count over warm-up and sampling together, its rate and time left, and the phase it is in
+    (`mh chain 1 warm-up`). On a terminal, tqdm bars stacked one per line (position = chain),
+    each sized to the terminal's width; otherwise throttled plain lines per chain
+    (PlainProgress, `interval_s` apart). Thread-safe: HMC's chains report from their threads.
+    `close()` (or the `with` block's end) finishes every bar in chain order.
+
+    Several fits in a row (`rig reproduce`): a chain that starts again (a count below its last
+    one) finishes the bars of the fit before and starts a new set; with `numbered` the fits are
+    told apart in the bars' names (`fit 2 chain 1 warm-up`)."""
+
+    def __init__(self, label: str, stream: IO[str] | None = None,
+                 interval_s: float = PLAIN_INTERVAL_S, numbered: bool = False) -> None:
+        self.label = label
+        self.numbered = numbered
+        self.fit = 1
+        self.stream = stream if stream is not None else sys.stderr
+        self.interval_s = interval_s
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.bars: dict[int, Any] = {}
+        self.done: dict[int, int] = {}
+        self.phase: dict[int, str] = {}
+        self.lock = threading.Lock()
+
+    def desc(self, chain: int, phase: str) -> str:
+        label = f"{self.label} {self.fit}" if self.numbered else self.label
+        return f"{label} chain {chain + 1} {PHASE_NAMES.get(phase, phase)}"
+
+    def _bar(self, chain: int, total: int, phase: str) -> Any:
+        desc = self.desc(chain, phase)
+        if self.tty:
+            from tqdm import tqdm
+            return tqdm(total=total, desc=desc, unit="it", file=self.stream,
+                        dynamic_ncols=True, mininterval=0.2, leave=True, position=chain)
+        return PlainProgress(total, desc, "it", self.stream, interval_s=self.interval_s)
+
+    def __call__(self, chain: int, done: int, total: int, phase: str) -> None:
+        with self.lock:
+            if chain in self.bars and done < self.done[chain]:    # the next fit's chains
+                self._close_all()
+                self.fit += 1
+            bar = self.bars.get(chain)
+            if bar is None:
+                bar = self.bars[chain] = self._bar(chain, total, phase)
+                self.done[chain], self.phase[chain] = 0, phase
+            if phase != self.phase[chain]:
+                self.phase[chain] = phase
+                if self.tty:
+                    bar.set_description_str(self.desc(chain, phase), refresh=False)
+                else:
+                    bar.desc = self.desc(chain, phase)
+            if done > self.done[chain]:
+                bar.update(done - self.done[chain])
+                self.done[chain] = done
+
+    def _close_all(self) -> None:
+        for chain in sorted(self.bars):
+            self.bars[chain].close()
+        self.bars.clear()
+        self.done.clear()
+        self.phase.clear()
+
+    def close(self) -> None:
+        with self.lock:
+            self._close_all()
+
+    def __enter__(self) -> "ChainBars":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

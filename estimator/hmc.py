@@ -33,7 +33,7 @@ from typing import Callable
 
 import numpy as np
 
-from estimator import stopping
+from estimator import sampler_progress, stopping
 from estimator.mh import SamplerOutput
 
 LogpGrad = Callable[[np.ndarray], tuple[float, np.ndarray]]
@@ -220,7 +220,9 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
     probability per chain, the wall time in `seconds` (warm-up included, as every sampler here
     reports it), and in `extra`: the warm-up and sampling-phase times summed over chains, step sizes, divergences per chain, gradient
     evaluations per chain (leapfrog steps; `warmup_n_grad` those of the warm-up), the adapted
-    inverse metrics, the leapfrog steps per transition and `warmup_at_step_floor`."""
+    inverse metrics, the leapfrog steps per transition and `warmup_at_step_floor`. Each chain
+    reports its iterations to the estimator.sampler_progress callback installed in the calling
+    thread (from the chains' threads too: the callback must then be thread-safe)."""
     if not 0.0 <= min_step_ratio < 1.0:
         raise ValueError(f"min_step_ratio must lie in [0, 1), not {min_step_ratio}")
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
@@ -239,10 +241,13 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
     warm_grad = np.zeros(n_chains, dtype=int)
     windows = _warmup_windows(n_warmup)
     stop = stopping.current()         # taken here: chains in threads poll the caller's check
+    progress = sampler_progress.current()   # and report to the caller's callback
 
     def run_chain(c: int) -> tuple[float, float]:
         t0 = time.perf_counter()
         ch = _Chain(logp_grad, x0[c], rngs[c], max_energy_error, max_leapfrog, stop)
+        rep = sampler_progress.ChainReporter(progress, [c], n_warmup, n_draws)
+        rep.start()
         start_metric = init_metric if init_metric is not None else curvature_metric(
             logp_grad, x0[c])
         if start_metric is not None:
@@ -286,6 +291,7 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
                 da = _DualAveraging(eps, target_accept, min_eps=min_step_ratio * eps)
                 window_draws = []
                 window = next(w_iter, None)
+            rep.step(it + 1)
         if n_warmup > 0:
             eps = da.final()
             at_floor[c] += da.at_floor
@@ -302,6 +308,7 @@ def hmc(logp_grad: LogpGrad, x0: np.ndarray, n_draws: int, n_warmup: int, seed: 
             acc_sum += acc
             divergences[c] += div
             draws[c, i] = ch.x
+            rep.step(n_warmup + i + 1)
         accept[c] = acc_sum / max(n_draws, 1)
         n_grad[c] = ch.n_grad
         steps_used[c] = st / max(n_draws, 1)

@@ -25,6 +25,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from estimator import sampler_progress
 from estimator.convergence import fit_from_draws, rmse
 from estimator.exact import (nig_draws, nig_posterior, semiconjugate_draws,
                              semiconjugate_posterior)
@@ -185,6 +186,12 @@ class ChainTask:
     post: Any = None
     """The exact posterior (method 'exact': its draws need no data)."""
     options: dict = field(default_factory=dict)
+    chain: int = 0
+    """This chain's index among the fit's chains (its progress reports carry it)."""
+    progress: Any = None
+    """The estimator.sampler_progress callback installed where the fit was asked for (None:
+    none). It travels with the task: run in another process it must be picklable and report
+    back, as a sampler_progress.QueueProgress does."""
 
 
 def chain_seeds(seed: int, chains: int) -> list[int]:
@@ -193,7 +200,8 @@ def chain_seeds(seed: int, chains: int) -> list[int]:
 
 
 def run_chain(task: ChainTask) -> SamplerOutput:
-    """Run one chain: draws (1, draws, p + 1) of (θ, log τ²) in sampler coordinates."""
+    """Run one chain: draws (1, draws, p + 1) of (θ, log τ²) in sampler coordinates. The
+    sampler reports its iterations to task.progress as chain task.chain."""
     if task.method == "exact":
         t0 = time.perf_counter()
         th, t2 = exact_draws(task.post, task.draws, np.random.default_rng(task.seed))
@@ -201,13 +209,15 @@ def run_chain(task: ChainTask) -> SamplerOutput:
         return SamplerOutput(draws=z, accept_rate=np.full(1, np.nan),
                              seconds=time.perf_counter() - t0)
     lp = LinearPosterior(task.Xs, task.ys, task.prior)
-    if task.method == "mh":
-        from estimator.mh import metropolis_hastings
-        return metropolis_hastings(lp.logp, task.x0, task.draws, task.warmup, task.seed,
-                                   **task.options)
-    if task.method == "sghmc":
-        from estimator.sghmc import sghmc
-        return sghmc(lp.grad_u, lp.n, task.x0, task.draws, task.warmup, task.seed, **task.options)
+    with sampler_progress.reporting(sampler_progress.offset(task.progress, task.chain)):
+        if task.method == "mh":
+            from estimator.mh import metropolis_hastings
+            return metropolis_hastings(lp.logp, task.x0, task.draws, task.warmup, task.seed,
+                                       **task.options)
+        if task.method == "sghmc":
+            from estimator.sghmc import sghmc
+            return sghmc(lp.grad_u, lp.n, task.x0, task.draws, task.warmup, task.seed,
+                         **task.options)
     raise ValueError(f"no chains for method {task.method!r}")
 
 
@@ -231,7 +241,10 @@ def fit_linear(model_name: str, names: Sequence[str], units: Sequence[str], X: n
     (ChainTask → run_chain, seeds from chain_seeds) through it, e.g. spread over a cluster; the
     result does not depend on which map runs them. None: all chains in one sampler call (MH then
     pools its warm-up adaptation over the chains). R-hat, ESS and intervals are computed here
-    over all chains either way."""
+    over all chains either way.
+
+    The samplers report every chain's iterations to the estimator.sampler_progress callback
+    installed by the caller (through chain_map too: each task carries it; see ChainTask)."""
     draws = int(draws if draws is not None else DEFAULT_DRAWS.get(method, 2000))
     warmup = int(warmup if warmup is not None else 1000)
     if method not in LINEAR_METHODS:
@@ -289,8 +302,10 @@ def fit_linear(model_name: str, names: Sequence[str], units: Sequence[str], X: n
     t0 = time.perf_counter()
     accept = None
     if chain_map is not None:
-        tasks = [ChainTask(method=method, draws=draws, warmup=warmup, seed=s)
-                 for s in chain_seeds(seed, chains)]
+        progress = sampler_progress.current()
+        tasks = [ChainTask(method=method, draws=draws, warmup=warmup, seed=s, chain=c,
+                           progress=progress)
+                 for c, s in enumerate(chain_seeds(seed, chains))]
         if method == "exact":
             for t in tasks:
                 t.post = post

@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from estimator import stopping
+from estimator import sampler_progress, stopping
 
 
 @dataclass
@@ -57,7 +57,8 @@ def metropolis_hastings(logp: Callable[[np.ndarray], float], x0: np.ndarray, n_d
                         n_warmup: int, seed: int, proposal_cov: np.ndarray | None = None
                         ) -> SamplerOutput:
     """Sample with `chains = x0.shape[0]` random-walk MH chains (logp: x (p,) -> log density up
-    to a constant; -inf or NaN is rejected). Returns the n_draws kept draws of every chain."""
+    to a constant; -inf or NaN is rejected). Returns the n_draws kept draws of every chain.
+    Reports the chains' iterations to the installed estimator.sampler_progress callback."""
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
     chains, d = x0.shape
     rng = np.random.default_rng(seed)
@@ -81,6 +82,9 @@ def metropolis_hastings(logp: Callable[[np.ndarray], float], x0: np.ndarray, n_d
     accepted = np.zeros(chains)
     n_eval = 0
     stop = stopping.current()
+    rep = sampler_progress.ChainReporter(sampler_progress.current(), range(chains), n_warmup,
+                                         n_draws)
+    rep.start()
     t0 = time.perf_counter()
     for t in range(total):
         stop()
@@ -117,6 +121,7 @@ def metropolis_hastings(logp: Callable[[np.ndarray], float], x0: np.ndarray, n_d
                 win_start = t + 1
         else:
             draws[:, t - n_warmup] = x
+        rep.step(t + 1)
     seconds = time.perf_counter() - t0
     rate = accepted / n_draws if n_draws else np.full(chains, np.nan)
     return SamplerOutput(draws=draws, accept_rate=rate, seconds=seconds,

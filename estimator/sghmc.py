@@ -58,7 +58,7 @@ import numpy as np
 from scipy.linalg import solve_discrete_lyapunov
 from scipy.optimize import minimize_scalar
 
-from estimator import stopping
+from estimator import sampler_progress, stopping
 from estimator.mh import SamplerOutput
 
 MAX_STEP = 0.05
@@ -232,7 +232,8 @@ def sghmc(grad_u: Callable[[np.ndarray, np.ndarray], np.ndarray], n_data: int, x
     posterior) from the rows idx, at full-data scale. None = automatic for batch_size,
     step_size (the learning rate ε in whitened units), friction (α per step) and mass (the
     Laplace Hessian). correct_noise=False runs the paper's literal noise 2αε (for measuring its
-    bias). See the module docstring for the rules."""
+    bias). See the module docstring for the rules. Reports each chain's iterations (one chain
+    after the other) to the installed estimator.sampler_progress callback."""
     t_start = time.perf_counter()
     x0 = np.atleast_2d(np.asarray(x0, dtype=float))
     chains, d = x0.shape
@@ -319,7 +320,10 @@ def sghmc(grad_u: Callable[[np.ndarray, np.ndarray], np.ndarray], n_data: int, x
     draws = np.empty((chains, n_draws, d))
     LT = L.T
     stop = stopping.current()
+    progress = sampler_progress.current()
     for c in range(chains):
+        rep = sampler_progress.ChainReporter(progress, [c], n_warmup, n_draws)
+        rep.start()
         th = x0[c].copy()
         v = np.sqrt(eps) * rng.standard_normal(d)
         xi = rng.standard_normal((total, d)) @ Lq.T
@@ -331,6 +335,7 @@ def sghmc(grad_u: Callable[[np.ndarray, np.ndarray], np.ndarray], n_data: int, x
             th = th + L @ v
             if t >= n_warmup:
                 draws[c, t - n_warmup] = th
+            rep.step(t + 1)
         if not np.all(np.isfinite(th)):
             raise FloatingPointError("SGHMC diverged (non-finite state); check the target and "
                                      "the mass matrix")

@@ -9,6 +9,7 @@ import os
 import re
 import select
 import struct
+import subprocess
 import termios
 from types import SimpleNamespace
 
@@ -211,3 +212,132 @@ def test_a_log_record_never_runs_on_from_a_live_line_in_the_terminal():
     assert [u for u in log_line if "PLC link lost" in u][0].split(" ", 2)[2].startswith(
         "WARNING daq.plc: PLC link lost")
     assert all(len(u) <= 79 for line in lines for u in line if u.startswith("["))
+
+
+def screen(text: str, cols: int) -> tuple[list[str], int]:
+    """The rows a terminal of `cols` columns shows after `text`, and how many times a line
+    wrapped (a printable character written past the last column). Knows what tqdm writes: CR,
+    LF, cursor up (ESC[nA) and other escape sequences (ignored)."""
+    rows: list[list[str]] = [[]]
+    r = c = wraps = 0
+    i = 0
+    while i < len(text):
+        ch = text[i]
+        m = ANSI.match(text, i)
+        if m:
+            if m.group().endswith("A"):
+                n = m.group()[2:-1]
+                r = max(0, r - int(n or 1))
+            i = m.end()
+            continue
+        if ch == "\r":
+            c = 0
+        elif ch == "\n":
+            r += 1
+            c = 0
+        else:
+            if c >= cols:
+                wraps += 1
+                r, c = r + 1, 0
+            while len(rows) <= r:
+                rows.append([])
+            row = rows[r]
+            row.extend(" " * (c + 1 - len(row)))
+            row[c] = ch
+            c += 1
+        while len(rows) <= r:
+            rows.append([])
+        i += 1
+    return ["".join(row).rstrip() for row in rows], wraps
+
+
+def identify_two_chains(tmp_path, stderr) -> subprocess.CompletedProcess:
+    """`rig identify` of a synthetic 30 s Eq. 4 run by MH with two chains, stdout captured."""
+    import sys
+
+    from estimator_synth import eq4_run
+
+    from core.runfile import write_run
+    write_run(eq4_run(1, duration=30.0, t0=30.0), tmp_path / "run1", fmt="csv")
+    return subprocess.run([sys.executable, "-m", "commands.cli", "identify",
+                           str(tmp_path / "run1.csv"), "--model", "eq4", "--method", "mh",
+                           "--chains", "2", "--draws", "3000", "--warmup", "1000", "--json"],
+                          stdout=subprocess.PIPE, stderr=stderr, text=True, timeout=300)
+
+
+def test_rig_identify_draws_one_bar_per_chain_in_an_80_column_pty(tmp_path):
+    """Two chains, two bars on two screen rows, each redraw within 80 columns and nothing
+    wrapped; both bars end at 100 % of warm-up + draws in the sampling phase with a rate;
+    stdout is the JSON result alone."""
+    import json
+    master, stream = pty_stream(80)
+    try:
+        p = identify_two_chains(tmp_path, stream)
+        err = drain(master)
+    finally:
+        stream.close()
+        os.close(master)
+    assert p.returncode == 0, err
+    fit = json.loads(p.stdout)
+    assert fit["method"] == "mh"
+    redraws = [u for line in updates(err) for u in line]
+    assert any("chain 1 warm-up" in u for u in redraws)
+    assert all(len(u) <= 80 for u in redraws), max(redraws, key=len)
+    rows, wraps = screen(err, 80)
+    assert wraps == 0
+    bars = [row for row in rows if " chain " in row]
+    assert len(bars) == 2, rows
+    for k, row in enumerate(bars, start=1):
+        assert row.startswith(f"mh chain {k} sampling: 100%"), row
+        assert "4000/4000" in row and re.search(r"<\d\d:\d\d, [\d.]+it/s\]$", row), row
+
+
+def test_the_screen_model_counts_a_wrapped_line():
+    rows, wraps = screen("x" * 81 + "\r\n", 80)
+    assert wraps == 1 and rows[:2] == ["x" * 80, "x"]
+    rows, wraps = screen("a\r\nb\x1b[A\rc", 80)
+    assert wraps == 0 and rows[:2] == ["c", "b"]
+
+
+def test_chain_bars_print_plain_lines_per_chain_when_not_a_terminal():
+    """Not a terminal: one plain line per chain and report (here unthrottled), naming the
+    chain, the phase, the count, the rate and the time left; no CR, no escape sequence."""
+    from commands.progress import ChainBars
+    from estimator.mh import metropolis_hastings
+    from estimator.sampler_progress import reporting
+
+    buf = io.StringIO()
+    with ChainBars("mh", stream=buf, interval_s=0.0) as bars, reporting(bars):
+        metropolis_hastings(lambda x: -0.5 * float(x @ x), [[0.0], [1.0]], 200, 100, seed=1)
+    out = buf.getvalue()
+    assert "\r" not in out and "\x1b" not in out
+    lines = out.splitlines()
+    for k in (1, 2):
+        mine = [x for x in lines if x.startswith(f"mh chain {k} ")]
+        assert any(x.startswith(f"mh chain {k} warm-up: ") for x in mine)
+        assert mine[-1].startswith(f"mh chain {k} sampling: 300/300 (100%)")
+        assert mine[-1].endswith(" done") and "it/s" in mine[-1] and "left" in mine[-1]
+
+
+def test_rig_identify_leaves_stderr_plain_and_stdout_json_when_piped(tmp_path):
+    import json
+    p = identify_two_chains(tmp_path, subprocess.PIPE)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["method"] == "mh"
+    assert "\r" not in p.stderr and "\x1b" not in p.stderr
+
+
+def test_chain_bars_start_a_new_set_for_each_fit_in_a_row():
+    """`rig reproduce` runs fit after fit: a chain counting from 0 again finishes the bars of
+    the fit before; numbered, the fits are told apart."""
+    from commands.progress import ChainBars
+    buf = io.StringIO()
+    with ChainBars("fit", stream=buf, interval_s=0.0, numbered=True) as bars:
+        for _ in range(2):
+            for done in (0, 5, 10):
+                for c in (0, 1):
+                    bars(c, done, 10, "warmup" if done < 5 else "sampling")
+    done_lines = [x for x in buf.getvalue().splitlines() if x.endswith(" done")]
+    assert [x.split(":")[0] for x in done_lines] == [
+        "fit 1 chain 1 sampling", "fit 1 chain 2 sampling",
+        "fit 2 chain 1 sampling", "fit 2 chain 2 sampling"]
