@@ -63,6 +63,11 @@ VARIANTS: tuple[Variant, ...] = (
              "torque_lag_s": 0.02}),
     Variant("rig B 50 Hz, 0.005° encoder", "rig_b",
             {"sample_rate_hz": 50.0, "encoder_res_deg": 0.005}),
+    Variant("rig C 200 Hz, 0.002° encoder, 10 ms torque lag", "rig_c",
+            {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_lag_s": 0.01}),
+    Variant("rig C 25 Hz, 0.01° encoder, 4+2 runs", "rig_c",
+            {"sample_rate_hz": 25.0, "encoder_res_deg": 0.01, "torque_noise": 300.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
@@ -88,8 +93,12 @@ def simulate_campaign(variant: Variant, seed: int, effects: dict[str, dict] | No
     temps = np.random.default_rng(seed).uniform(15.0, 60.0, len(plan))
     train, test, raw = [], [], []
     for i, (scheme, rpm, direction, is_train) in enumerate(plan):
+        if getattr(mod, "SEED_IS_CAMPAIGN", False):     # the rig keys its runs itself
+            kw = {"seed": seed, "run": i}
+        else:                                             # the rig decodes seed // 10 000
+            kw = {"seed": 10_000 * seed + i}
         rr = mod.simulate_run(scheme, rpm, direction, float(temps[i]), effects or {},
-                              seed=10_000 * seed + i, sensors=spec, periods=periods)
+                              sensors=spec, periods=periods, **kw)
         raw.append(rr)
         run = RunData(samples=rr.samples.copy(), meta=dict(rr.meta))
         (train if is_train else test).append(run)

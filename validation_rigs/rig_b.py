@@ -95,7 +95,11 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-__all__ = ["SensorSpec", "RigRun", "EFFECT_FORMS", "OUT_OF_VOCABULARY", "simulate_run"]
+__all__ = ["SensorSpec", "RigRun", "EFFECT_FORMS", "OUT_OF_VOCABULARY", "SEED_IS_CAMPAIGN",
+           "simulate_run"]
+
+SEED_IS_CAMPAIGN = True
+"""simulate_run's `seed` is the campaign's (one rig for every run of it); `run` keys the run."""
 
 G = 9.81                                   # m/s^2
 REDUCTION = 11000                          # motor angle / output angle
@@ -628,7 +632,7 @@ def _stick_slip(t, qp, vp, ap, eff):
 
 def simulate_run(scheme: int, motor_speed_rpm: float | None, direction: int, temp_joint_c: float,
                  effects: dict[str, dict] | None = None, seed: int = 0,
-                 sensors: SensorSpec = SensorSpec(), periods: int = 6) -> RigRun:
+                 sensors: SensorSpec = SensorSpec(), periods: int = 6, run: int = 0) -> RigRun:
     """Simulate one run of scheme 1, 2 or 3 on rig B.
 
     scheme 1: constant output speed rpm*2*pi/60/N * direction after a cycloidal (jerk-limited)
@@ -645,6 +649,9 @@ def simulate_run(scheme: int, motor_speed_rpm: float | None, direction: int, tem
     seed: fixes the campaign's parameter perturbations (seed only), the Fourier coefficients,
       the effect parameters (random phases, signs) and the run's noise (seed and run
       identity); none of them depends on which effects are present.
+    run: the run's number within the campaign; it keys the run's noise and dynamometer error
+      with the scheme, direction and speed, so that two runs of the same scheme, direction and
+      speed in one campaign (a repeat) carry their own noise.
     """
     if scheme not in (1, 2, 3):
         raise ValueError(f"scheme must be 1, 2 or 3, got {scheme!r}")
@@ -673,7 +680,7 @@ def simulate_run(scheme: int, motor_speed_rpm: float | None, direction: int, tem
     duration = _duration(scheme, periods)
     n = int(round(duration / dt)) + 1
     t = np.arange(n) * dt
-    run_key = (scheme, 0 if direction > 0 else 1, int(round((rpm or 0.0) * 1000)))
+    run_key = (scheme, 0 if direction > 0 else 1, int(round((rpm or 0.0) * 1000)), int(run))
     erng = {name: _rng(seed, 5, _name_key(name)) for name in EFFECT_FORMS}
 
     qp, vp, ap, sp, phase = _plan(scheme, rpm, direction, periods, seed, t)
