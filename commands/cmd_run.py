@@ -5,6 +5,7 @@ database while it runs, with a progress bar and a live line of the key channels.
     rig emulate --time-scale 10 &                       # or the real rig, by settings
     RIG_PLC_POLL_HZ=200 rig run scheme1 --speed 3000 --direction 1 --operator alice
     rig run scheme3 --sample-rate 20 --periods 2
+    rig run scheme1 --limit-set range --speed 300 --load 180000   # Table 11's torque range
     rig run --spec run.json                             # the same run as one JSON document
     rig runs; rig show RUN
 
@@ -44,10 +45,12 @@ def _option_help(per: dict[int, SchemeParam]) -> str:
     docs = list(dict.fromkeys(q.bounds.doc for q in per.values()))
     what = " / ".join(docs)
     defaults = {q.default for q in per.values()}
+    fmt = "{!r}" if p.type is str else "{:g}"
     if len(defaults) == 1:
-        default = f"default {p.default:g}"
+        default = "default " + fmt.format(p.default)
     else:
-        default = "default " + ", ".join(f"{q.default:g} (scheme {n})" for n, q in per.items())
+        default = "default " + ", ".join(fmt.format(q.default) + f" (scheme {n})"
+                                         for n, q in per.items())
     which = ("scheme " if len(per) == 1 else "schemes ") + ", ".join(map(str, per))
     rng = b.interval() if b.choices is not None else "in " + b.interval()
     return f"{what}{unit}, {rng}; {which}; {default}"
@@ -57,13 +60,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scheme", nargs="?", choices=("scheme1", "scheme2", "scheme3"),
                         help="the scheme to run (or give the whole run with --spec)")
     parser.add_argument("--spec", metavar="FILE",
-                        help="the run as one JSON document {scheme, params {field: value}, "
+                        help="the run as one JSON document {scheme, params {field: value} "
+                             "(the scheme options' fields, limit_set among them), "
                              "operator, notes, effects, source, rig_name, reset_watchdog}; "
                              "'-' reads stdin (with --control-stdin: its first line, the "
                              "commands follow); replaces the scheme and the run's options")
     for option, (_, typ, per) in scheme_options().items():
+        choices = next(iter(per.values())).bounds.choices
+        metavar = "{" + ",".join(choices) + "}" if typ is str else None
         parser.add_argument("--" + option.replace("_", "-"), dest=option, type=typ,
-                            help=_option_help(per))
+                            metavar=metavar, help=_option_help(per))
     parser.add_argument("--operator", help="who runs it (stored with the run)")
     parser.add_argument("--notes", help="free text stored with the run")
     parser.add_argument("--config", metavar="FILE",

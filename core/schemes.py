@@ -72,6 +72,12 @@ def limit_set_named(name: str) -> LimitSet:
     return LIMIT_SETS[name]
 
 
+MIN_LOAD_STEP = 1e3
+"""Smallest load step of scheme 2 [N·m] (half Table 11's ±2 kN·m torque accuracy band; the
+paper steps by 10 kN·m): at most RANGE_TORQUE / MIN_LOAD_STEP = 180 steps. An unbounded step
+count let one schema-valid request (step = 1e-3 N·m: 1.2e8 steps; or a step below the float
+resolution of the load, which never ends) grow the profile's lists in the requesting process
+until the machine ran out of memory."""
 MAX_PHASE_TIME = 600.0
 """Longest idle, ramp, settle, hold or pause a scheme may ask for [s]."""
 MAX_RUN_TIME = 3600.0
@@ -102,13 +108,15 @@ class Bounds:
     ge: float | None = None
     gt: float | None = None
     le: float | None = None
-    choices: tuple[int, ...] | None = None
+    choices: tuple[int, ...] | tuple[str, ...] | None = None
+    """The values allowed, for an int or a str field (a str field always has them)."""
 
     def interval(self) -> str:
-        """The range as text, e.g. '(0 r/min, 3000 r/min]'."""
+        """The range as text, e.g. '(0 r/min, 3000 r/min]', 'one of +1, -1'."""
         u = f" {self.unit}" if self.unit else ""
         if self.choices is not None:
-            return "one of " + ", ".join(f"{c:+d}" for c in self.choices)
+            return "one of " + ", ".join(c if isinstance(c, str) else f"{c:+d}"
+                                         for c in self.choices)
         lo = f"[{self.ge:g}{u}" if self.ge is not None else (
             f"({self.gt:g}{u}" if self.gt is not None else "(-inf")
         hi = f"{self.le:g}{u}]" if self.le is not None else "inf)"
@@ -116,7 +124,11 @@ class Bounds:
 
     def check(self, name: str, typ: type, value: Any) -> None:
         """ValueError naming the parameter, its range and the value, when `value` is out of
-        range or not a number of the field's type (NaN is refused: no comparison holds)."""
+        range or not a value of the field's type (NaN is refused: no comparison holds)."""
+        if typ is str:
+            if not isinstance(value, str) or value not in (self.choices or ()):
+                raise ValueError(f"{name}: {self.doc} must be {self.interval()}, got {value!r}")
+            return
         if isinstance(value, bool) or not isinstance(value, int if typ is int else (int, float)):
             kind = "an integer" if typ is int else "a number"
             raise ValueError(f"{name}: {self.doc} must be {kind}, got {value!r}")
@@ -130,7 +142,7 @@ class Bounds:
 
 def param(default: Any, unit: str, doc: str, option: str | None, *, ge: float | None = None,
           gt: float | None = None, le: float | None = None,
-          choices: tuple[int, ...] | None = None) -> Any:
+          choices: tuple[int, ...] | tuple[str, ...] | None = None) -> Any:
     """A scheme dataclass field with its default and Bounds (the one place a scheme parameter
     is described)."""
     return field(default=default, metadata={"bounds": Bounds(unit, doc, option, ge=ge, gt=gt,
@@ -138,8 +150,8 @@ def param(default: Any, unit: str, doc: str, option: str | None, *, ge: float | 
 
 
 def _field_type(f: Any) -> type:
-    """int or float: the annotations are strings (postponed evaluation)."""
-    return int if str(f.type).split(" ")[0] == "int" else float
+    """int, str or float: the annotations are strings (postponed evaluation)."""
+    return {"int": int, "str": str}.get(str(f.type).split(" ")[0], float)
 
 
 def _check_bounds(scheme: Any) -> None:
@@ -155,7 +167,7 @@ class SchemeParam:
     name: str
     """The scheme dataclass field."""
     type: type
-    """int or float."""
+    """int, float or str (a str parameter has its choices in `bounds`)."""
     default: Any
     bounds: Bounds
 
@@ -195,9 +207,10 @@ class _LoadingScheme(abc.ABC):
     """Table 11's 90 kN; bending = shear·arm."""
     sample_rate_hz: float = param(10.0, "Hz", "sample rate", "sample_rate", ge=10.0, le=1000.0)
     """The paper reads the encoder every 0.1 s; rig.md asks for at least 10 Hz."""
-    limit_set: str = "default"
+    limit_set: str = param("default", "", "interlock limit set", "limit_set",
+                           choices=tuple(LIMIT_SETS))
     """The interlock limits the run is held to (LIMIT_SETS): "range" for a torque loading
-    range test above the rated torque (Table 11 item 1)."""
+    range test above the rated torque (Table 11 item 1); recorded with the run."""
 
     scheme: ClassVar[int] = 0
 
@@ -324,7 +337,9 @@ class Scheme1(_LoadingScheme):
 class Scheme2(_LoadingScheme):
     """Scheme 2 — current and torque following curves: load forward in `step` increments,
     pausing `pause` at each, up to the rated torque; then unload (paper II-B, rig.md)."""
-    step: float = param(10e3, "N·m", "load step", "step", gt=0.0, le=RATED_TORQUE)
+    step: float = param(10e3, "N·m", "load step", "step", ge=MIN_LOAD_STEP, le=RATED_TORQUE)
+    """The paper's 10 kN·m; at least MIN_LOAD_STEP, so a profile has at most a few hundred
+    steps (load_profile builds one breakpoint per step before any run-time check)."""
     pause: float = _durations(2.0, "pause at each step", "pause")
     ramp_rate: float = param(3e3, "N·m/s", "rate between steps", "ramp_rate", gt=0.0, le=1e5)
     """Design: 3.3 s per step; the dynamometer's 0.2 s lag then trails by 0.6 kN·m, leaving
