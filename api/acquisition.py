@@ -13,7 +13,10 @@ explicit `event` type) from its stdout. The database URL goes to it by environme
 has any URL password masked (core.redact).
 
 Progress and the run id come from the events (`progress`, `run_created`, relayed from `rig
-run`, every 0.25 s with every numeric channel of the latest sample): no database polling, and
+run`, every 0.2 s with every numeric channel of the latest sample and the rig's state — PLC,
+drives, interlocks, e-stop latch, core.documents.RigState — plus one after make-safe with the
+final state; the last one stays in the acquisition's `progress` as the last known state): no
+database polling, and
 they arrive whether or not the writer's commits are visible yet. The final state comes from SQL —
 the run's row written by the engine is the record of truth — read once the processes have
 ended. The service stops its acquisitions when it shuts down (AcquisitionManager.shutdown).
@@ -34,6 +37,7 @@ from datetime import datetime, timezone
 from typing import Any
 
 from api.acquisition_process import STOP_GRACE_S, AcquisitionSpec
+from core.jsonsafe import json_safe
 from core.redact import redact_secrets
 
 
@@ -63,6 +67,13 @@ class Acquisition:
     log: deque = field(default_factory=lambda: deque(maxlen=50))
     version: int = 0
     """Bumped on every change (the event stream waits on it)."""
+    progress_seq: int = 0
+    """Number of progress events received (the sequence number of the latest)."""
+    recent_progress: deque = field(default_factory=lambda: deque(maxlen=32))
+    """The latest progress events as (sequence number, the event as JSON text with the run id):
+    the event stream sends each one, not only the latest it sees when it wakes (two events that
+    came close together, e.g. after a stall of a process on a loaded machine, are both
+    delivered); serialized once here, not once per client."""
     proc: subprocess.Popen | None = None
     rig_run_pid: int | None = None
     exit_code: int | None = None
@@ -161,6 +172,10 @@ class AcquisitionManager:
         with self._lock:
             for k, v in changes.items():
                 setattr(acq, k, v)
+            if "progress" in changes:
+                acq.progress_seq += 1
+                text = json.dumps(json_safe({"run_id": acq.run_id, **changes["progress"]}))
+                acq.recent_progress.append((acq.progress_seq, text))
             acq.version += 1
 
     def _follow(self, acq: Acquisition) -> None:
@@ -176,7 +191,8 @@ class AcquisitionManager:
             kind = ev.get("event")
             if kind == "progress":
                 progress = {k: ev.get(k) for k in (
-                    "t", "duration", "fraction", "phase", "n_samples", "missed", "channels")}
+                    "t", "duration", "fraction", "phase", "n_samples", "missed", "channels",
+                    "rig")}
                 progress["sent_at"] = time.time()
                 if acq.twin is not None and progress["t"] is not None:
                     twin = acq.twin.update(float(progress["t"]), progress["channels"] or {})

@@ -201,7 +201,8 @@ class JsonEvents:
     """The run reported as JSON lines, one event each, with an explicit `event` type (SI units;
     NaN as null): `started` (plan, source, duration, samples), `run_created` (run_id, once the
     run is stored), `progress` (run id, plan time and duration [s], fraction, phase, sample
-    counts, every numeric channel of the latest sample), `run_ended` (the outcome) or `run_failed` (reason).
+    counts, every numeric channel of the latest sample, the rig's state: core.documents.RigState),
+    `run_ended` (the outcome) or `run_failed` (reason).
     Also the engine's progress callback."""
 
     def __init__(self, stream, run_id) -> None:
@@ -232,7 +233,7 @@ class JsonEvents:
                  if isinstance(v, numbers.Real) and k != "t"}   # every numeric channel
         self.emit("progress", run_id=rid, t=p.t, duration=p.duration, fraction=p.fraction,
                   phase=p.phase or None, n_samples=p.n_samples, missed=p.missed,
-                  channels=chans)
+                  channels=chans, rig=p.rig)
 
     def close(self) -> None:
         pass

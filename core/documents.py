@@ -1,6 +1,7 @@
 """The documents the platform writes, as types: a run's metadata (the run format's `<stem>.json`),
 the start document the acquisition engine adds to it (stream descriptors, baselines), the
-end document it stores when the run stops, and the gap diagnosis's report.
+end document it stores when the run stops, the rig's state its progress events carry, and the
+gap diagnosis's report.
 
 Bluesky's event model types its documents the same way (TypedDicts): at run time every
 document is a plain JSON-ready dict, stored as it is in the run's `meta` column or a report
@@ -10,8 +11,8 @@ metadata is optional (a record from another rig may lack any of them) and unknow
 document may carry.
 
 Where each is built: RunMeta is checked by core.runfile.validate_meta; RunStart, StreamDescriptor,
-Baseline and RunEnd are built in daq/run_record.py; the diagnosis report in
-estimator/diagnosis.py.
+Baseline and RunEnd are built in daq/run_record.py; RigState in daq/engine.py (rig_state); the
+diagnosis report in estimator/diagnosis.py.
 """
 
 from __future__ import annotations
@@ -210,6 +211,72 @@ class RunEnd(TypedDict, total=False):
     end: Baseline
     counters: Counters
     events: list[EventNote]
+
+
+# --- the rig's state in the acquisition's progress events ------------------------------------------
+
+class PlcState(TypedDict):
+    """The PLC's state word as the latest status poll decoded it (core.plc_map): no extra read."""
+    mode: str
+    """PLC mode by name (core.plc_map.PLC_MODES: startup, ready, run, safe), 'unknown' before the
+    first poll or for a value the map does not name."""
+    mode_code: int | None
+    fault_code: int | None
+    fault: str
+    """The first latched fault by name (core.plc_map.FAULT_CODES), 'unknown' as for `mode`."""
+    status_bits: int | None
+    """The raw status word."""
+    bits: dict[str, bool]
+    """Every named bit of the status word (core.plc_map.STATUS_BITS): set or not."""
+    link: bool
+    """The PLC answers: no open link gap."""
+    age_s: float | None
+    """How old the latest status snapshot is [s of wall time] (null before the first poll)."""
+
+
+class DriveState(TypedDict):
+    """One drive as the master holds it from the TPDOs and heartbeats it already receives."""
+    motor: int
+    node_id: int
+    state: str
+    """CiA 402 state named by the latest statusword ('UNKNOWN' before one came)."""
+    statusword: int | None
+    enabled: bool
+    """In the joint and in OPERATION ENABLED."""
+    fault: bool
+    """CiA 402 FAULT or FAULT REACTION ACTIVE."""
+    active: bool
+    """In the joint (not dropped)."""
+    dropped_reason: str | None
+    temperature: float | None
+    """Winding temperature [°C]; null before the status TPDO brought one."""
+
+
+class InterlockState(TypedDict):
+    """One interlock (daq.interlocks.INTERLOCKS, plus any other trip name the rig recorded)."""
+    name: str
+    tripped: bool
+    message: str | None
+    """The trip's message when tripped."""
+
+
+class RigState(TypedDict):
+    """The rig's state carried by every progress event (daq.engine.rig_state): built from what
+    the acquisition already reads each cycle — the PLC poll's latest status block, the drives'
+    TPDO and heartbeat values, the interlocks' latched trips — so an event costs no fieldbus
+    traffic."""
+    at: float
+    """When it was read [s, UNIX time]."""
+    safe: bool
+    """The rig is latched in its safe state (a trip, make-safe) until reset."""
+    estop_latched: bool
+    """The e-stop is latched: the PLC's status bit `estop`, or an e-stop trip the rig holds."""
+    estop_reason: str | None
+    """The e-stop trip's message (null when the PLC reports it latched without one, or none)."""
+    plc: PlcState
+    drives: list[DriveState]
+    """Empty when the rig has no drives configured."""
+    interlocks: list[InterlockState]
 
 
 # --- the gap diagnosis's report -------------------------------------------------------------------

@@ -16,6 +16,10 @@ The record, in the spirit of bluesky's documents:
 - stop: exit status `success`, `abort` (a trip, the operator) or `fail` (an error), the reason,
   and the slow signals and counters read at the end.
 
+Not stored, for a live view: a progress report every `progress_period` s (plan time, phase,
+counts, the latest sample, and the rig's state — PLC, drives, interlocks, e-stop latch —
+from what the acquisition already holds, `rig_state`), and one more after make-safe.
+
 Make-safe ALWAYS runs (finally), whether the plan ends, trips, raises or is cancelled; only
 then is the run stopped.
 
@@ -34,10 +38,13 @@ from typing import Any, Callable
 
 import numpy as np
 
-from core.documents import Baseline, Counters, ExitStatus, InterruptionKind, RunEnd, RunStart
+from core import drive_od
+from core.documents import (Baseline, Counters, DriveState, ExitStatus, InterlockState,
+                            InterruptionKind, PlcState, RigState, RunEnd, RunStart)
 from core.jsonsafe import json_safe
-from core.plc_map import REGISTER_MAP
+from core.plc_map import FAULT_CODES, PLC_MODES, REGISTER_MAP, STATUS_BITS
 from daq import run_record
+from daq.interlocks import INTERLOCKS
 from daq.plans import Plan
 from daq.plc import PlcLinkError
 from daq.rig import Rig, RigSafeError
@@ -63,6 +70,8 @@ class Progress:
     missed: int
     latest: dict[str, float] = field(default_factory=dict)
     """The latest sample's values by channel."""
+    rig: RigState | None = None
+    """The rig's state when reported (rig_state): PLC, drives, interlocks, e-stop latch."""
 
     @property
     def fraction(self) -> float:
@@ -103,13 +112,70 @@ async def _off_loop(fn: Callable[..., Any], *args: Any) -> Any:
 
 _clean = json_safe
 
+PROGRESS_PERIOD = 0.2
+"""Default period of the progress reports [s of wall time]: 5 a second, so that a live view
+gets at least 4 a second after the scheduling jitter of a loaded machine."""
+
+_DRIVE_FAULT_STATES = ("FAULT", "FAULT REACTION ACTIVE")
+
+
+def _named(table: dict[int, str], value: float | None) -> str:
+    if value is None or not math.isfinite(value):
+        return "unknown"
+    return table.get(int(value), "unknown")
+
+
+def rig_state(rig: Rig) -> RigState:
+    """The rig's state from what the acquisition already holds — the PLC poll's latest status
+    block (`rig.last_status`), the drives' latest statusword, heartbeat and temperature (from
+    their TPDOs), the latched trips — so it costs no fieldbus request (cheap enough for every
+    progress event: a few dozen dict entries)."""
+    now = time.time()
+    st = rig.last_status
+    if st is not None:
+        bits = int(st.get("status_bits", 0))
+        mode, fault = st.get("plc_mode"), st.get("fault_code")
+        bit_of = REGISTER_MAP.signals["status_bits"].bit
+        bit_map = {b: bool(bits & bit_of(b)) for b in STATUS_BITS}
+    else:
+        bits, mode, fault, bit_map = None, None, None, {b: False for b in STATUS_BITS}
+    last_rx = rig.plc["t_rx"][-1] if len(rig.plc) else None
+    plc: PlcState = {
+        "mode": _named(PLC_MODES, mode), "mode_code": None if mode is None else int(mode),
+        "fault_code": None if fault is None else int(fault), "fault": _named(FAULT_CODES, fault),
+        "status_bits": bits, "bits": bit_map,
+        "link": st is not None and not (rig.gaps and rig.gaps[-1][1] is None),
+        "age_s": None if last_rx is None else max(0.0, now - last_rx)}
+    drives: list[DriveState] = []
+    for d in (rig.drives.drives if rig.drives is not None else []):
+        state = d.state
+        temp = d.temperature
+        drives.append({"motor": d.motor, "node_id": d.node_id, "state": state,
+                       "statusword": d.statusword,
+                       "enabled": d.active and state == "OPERATION ENABLED",
+                       "fault": state in _DRIVE_FAULT_STATES, "active": d.active,
+                       "dropped_reason": d.dropped_reason,
+                       "temperature": float(temp) if math.isfinite(temp) else None})
+    tripped = {}
+    for tr in rig.trips:               # the first trip of each interlock is the one latched
+        tripped.setdefault(tr.name, tr.message)
+    names = list(INTERLOCKS) + [n for n in tripped if n not in INTERLOCKS]
+    interlocks: list[InterlockState] = [{"name": n, "tripped": n in tripped,
+                                         "message": tripped.get(n)} for n in names]
+    return {"at": now, "safe": bool(rig.safe),
+            "estop_latched": bit_map["estop"] or "estop" in tripped,
+            "estop_reason": tripped.get("estop"), "plc": plc, "drives": drives,
+            "interlocks": interlocks}
+
 
 class Engine:
     """Runs plans against one Rig (not yet started) into one Store.
 
     `source`: 'emulator' or 'rig'; `effects`: the effects injected in the emulator as
     declared by whoever started it (the stand-in does not report them over its protocols);
-    `progress(Progress)` is called about every `progress_period` s of wall time;
+    `progress(Progress)` is called every `progress_period` s of wall time on a fixed grid
+    (a late report does not delay the next ones), and once more after make-safe with the
+    rig's final state (the e-stop latch, the trips);
     `drive_wait` [s of wall time] is how long a sample waits for the drives' TPDOs;
     `shared_drive_clock`: the drives' stamps count the PLC's rig time modulo 2^16 ms (true of
     the stand-in); otherwise they are aligned by receive time.
@@ -122,7 +188,7 @@ class Engine:
                  rig_name: str | None = None, operator: str | None = None,
                  effects: dict[str, Any] | None = None, notes: str = "",
                  progress: Callable[[Progress], None] | None = None,
-                 progress_period: float = 0.25, drive_wait: float = 0.2,
+                 progress_period: float = PROGRESS_PERIOD, drive_wait: float = 0.2,
                  shared_drive_clock: bool = True, commit_interval_s: float = 0.5,
                  reset_watchdog_fault: bool = False) -> None:
         if source not in ("emulator", "rig"):
@@ -155,7 +221,11 @@ class Engine:
         self._open_gap: float | None = None
         self._sent: dict[str, Any] = {}
         self._latest: dict[str, float] = {}
-        self._last_progress = 0.0
+        self._next_progress = math.inf
+        """time.monotonic() at which the next progress report is due (set when the loop
+        starts)."""
+        self._reported = False
+        self._plan: Plan | None = None
 
     @property
     def missed(self) -> int:
@@ -174,6 +244,7 @@ class Engine:
         outcome; an error in the plan or the engine is recorded as 'fail' and re-raised, a
         cancellation as 'abort' and re-raised."""
         self._reset_state()
+        self._plan = plan
         rig = self.rig
         status, reason = EXIT_FAIL, "engine did not start"
         try:
@@ -225,6 +296,9 @@ class Engine:
             notes["end"] = {"error": repr(exc)}
         notes["counters"] = self._counters()
         notes["events"] = run_record.event_notes(rig.events, self._run_time)
+        if self._reported and self._plan is not None:  # the final state: safe, trips, e-stop
+            with contextlib.suppress(Exception):
+                self._report(self._plan)
         w = self.writer
         try:
             if w is not None and w.run_id is not None:
@@ -347,6 +421,7 @@ class Engine:
         cmd_period = min(0.5 * plan.period, 0.05)
         next_cmd = -math.inf
         self.aligner.start_now()  # plan time 0 is the first snapshot from now on
+        self._next_progress = time.monotonic()
         while True:
             await asyncio.sleep(tick)
             self._handle_events()
@@ -364,8 +439,13 @@ class Engine:
                 next_cmd = tau + cmd_period
                 await self._command(plan, tau)
             now = time.monotonic()
-            if self.progress is not None and now - self._last_progress >= self.progress_period:
-                self._last_progress = now
+            if self.progress is not None and now >= self._next_progress:
+                # on a fixed grid: a late report does not push the next ones back (the
+                # average rate stays 1/progress_period, where `now - last >= period` lost
+                # each tick's lateness); never two within half a period (no burst after a
+                # stall: the event stream would merge them)
+                self._next_progress = max(self._next_progress + self.progress_period,
+                                          now + 0.5 * self.progress_period)
                 self._report(plan)
 
     async def _command(self, plan: Plan, tau: float) -> None:
@@ -462,9 +542,10 @@ class Engine:
 
     def _report(self, plan: Plan) -> None:
         lt = self._latest
+        self._reported = True
         self.progress(Progress(t=float(lt.get("t", 0.0)), duration=plan.duration,
                                phase=str(lt.get("phase", "")), n_samples=self.n_samples,
-                               missed=self.missed, latest=dict(lt)))
+                               missed=self.missed, latest=dict(lt), rig=rig_state(self.rig)))
 
 
 async def run_plan(plan: Plan, rig: Rig, store: Store, **engine_kwargs: Any) -> RunOutcome:

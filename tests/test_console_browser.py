@@ -1,8 +1,9 @@
 """The operator console driven in a real headless browser (Debian's chromium through its
 chromedriver, via Selenium; no browser is downloaded): `rig serve` runs on loopback; a viewer
 signs in and sees no control but E-STOP; an operator starts scheme 1 on the emulator from the
-form built from the scheme's schema, watches the live plot grow, presses E-STOP (its keyboard
-shortcut) and sees the run end `abort` with the e-stop as its reason, opens the run page and its
+form built from the scheme's schema, watches the live plot grow and the rig-state panel (PLC,
+drives, interlocks, e-stop latch) live, presses E-STOP (its keyboard shortcut) and sees the run
+end `abort` with the e-stop as its reason and the latch shown latched, opens the run page and its
 acceptance table, submits an identification job and opens its report. `/docs` and `/redoc` load
 with no asset from outside the service. Screenshots go to env RIG_TEST_ARTIFACTS (default: the
 test's tmp dir)."""
@@ -179,6 +180,25 @@ def sign_in(drv, base: str, token: str) -> None:
     until(lambda: drv.find_element(By.ID, "who").text, 30, "the signed-in role")
 
 
+RIG_PANEL_JS = """
+const box = document.getElementById("rig-state"), out = {live: box.dataset.live,
+  estop: document.getElementById("rs-estop").dataset.latched, plc: {}, drives: {}, interlocks: {}};
+const groups = {plc: "plc", drive: "drives", interlock: "interlocks"};
+for (const e of box.querySelectorAll(".lamp[data-kind]"))
+  if (groups[e.dataset.kind]) out[groups[e.dataset.kind]][e.dataset.name] = [e.dataset.state, e.dataset.level];
+return out;"""
+
+
+def rig_panel(drv) -> dict:
+    """The rig-state panel as the page shows it, read in one script (the page redraws it with
+    every event): whether it is live, the e-stop latch, and each lamp's (state, level) by group
+    (plc, drives, interlocks) and name."""
+    out = drv.execute_script(RIG_PANEL_JS)
+    for group in ("plc", "drives", "interlocks"):
+        out[group] = {k: tuple(v) for k, v in out[group].items()}
+    return out
+
+
 def test_viewer_sees_no_controls_but_estop(served, browser, tmp_path):
     from selenium.webdriver.common.by import By
     base, tokens, _ = served
@@ -189,6 +209,9 @@ def test_viewer_sees_no_controls_but_estop(served, browser, tmp_path):
     assert browser.find_elements(By.ID, "stop") == []
     assert browser.find_elements(By.ID, "job-form") == []
     assert browser.find_element(By.ID, "estop").is_displayed()
+    # no acquisition yet: the rig-state panel says it knows nothing, and is not live
+    assert browser.find_element(By.ID, "rig-state").get_attribute("data-live") == "false"
+    assert "no acquisition" in browser.find_element(By.ID, "rs-live").text
     # the console adds no authority: the API still refuses the viewer
     r = httpx.post(f"{base}/schemes/1/runs", headers={"Authorization": f"Bearer {tokens['viewer']}"},
                    json={"target": "emulator", "operator": "x"})
@@ -244,6 +267,17 @@ def test_operator_runs_estops_and_reports(served, browser, tmp_path):
     first = until(lambda: pts() >= 10 and pts(), 120, "live points", seen)
     until(lambda: pts() > first + 10, 60, "the live plot to grow")
     assert browser.find_element(By.ID, "acq-state").text in ("running", "starting")
+    # the rig-state panel, live: PLC running, three drives enabled, no interlock tripped,
+    # the e-stop released (read back from the page's lamps)
+    until(lambda: rig_panel(browser)["live"] == "true" and rig_panel(browser)["drives"], 60,
+          "the live rig state", lambda: rig_panel(browser))
+    panel = rig_panel(browser)
+    assert panel["plc"]["mode"] in (("run", "ok"), ("ready", "ok")), panel
+    assert panel["plc"]["link"] == ("up", "ok") and panel["plc"]["fault"] == ("none", "ok"), panel
+    assert panel["drives"] == {f"m{k}": ("OPERATION ENABLED", "ok") for k in (1, 2, 3)}, panel
+    assert {"torque", "angle", "estop", "plc_link", "drive_link"} <= set(panel["interlocks"])
+    assert all(v == ("ok", "ok") for v in panel["interlocks"].values()), panel
+    assert panel["estop"] == "false", panel
     browser.save_screenshot(str(shots / "console-live.png"))
 
     # the connection drops for 3 s (the proxy between browser and service closes every
@@ -261,6 +295,16 @@ def test_operator_runs_estops_and_reports(served, browser, tmp_path):
                   90, "the run's end", seen)
     reason = browser.find_element(By.ID, "acq-run").get_attribute("data-reason")
     assert final == "abort" and "e-stop" in reason.lower(), (final, reason, seen())
+    # the panel shows the e-stop latched and the estop interlock tripped, as the last known
+    # state (the acquisition has ended: not live)
+    until(lambda: rig_panel(browser)["estop"] == "true", 30, "the e-stop latch",
+          lambda: rig_panel(browser))
+    panel = rig_panel(browser)
+    assert "E-STOP LATCHED" in browser.find_element(By.ID, "rs-estop").text
+    assert panel["interlocks"]["estop"] == ("tripped", "bad"), panel
+    assert panel["plc"]["safe"] == ("safe", "bad"), panel
+    until(lambda: rig_panel(browser)["live"] == "false", 10, "the panel to say it is not live")
+    assert "NOT LIVE" in browser.find_element(By.ID, "rs-live").text
     browser.save_screenshot(str(shots / "console-estopped.png"))
 
     # the run page: plots and the Table 11 acceptance table

@@ -188,6 +188,7 @@ async function loadRigModel() {
 
 function redrawLive() {
   if ($("live").hidden) return;
+  rigStaleCheck();
   for (const p of live.plots) p.plot.draw();
   if (live.twin) { live.twin.draw(); $("twin-plot").dataset.points = String(live.twin.points()); }
   $("live-plots").dataset.points = String(live.plots.reduce((n, p) => n + p.plot.points(), 0));
@@ -229,15 +230,82 @@ function showAcq(a) {
         onclick: () => diagnoseAgainstRigModel(a.run_id) }));
   }
   const stop = $("stop"); if (stop) stop.disabled = !ACTIVE.includes(a.state);
+  if (!ACTIVE.includes(a.state)) {   // not live: the last known rig state, the newest one seen
+    const r = a.progress && a.progress.rig;
+    showRigState(r && (!rigView.state || r.at >= rigView.state.at) ? r : null, false);
+  }
   const rows = [["target", a.target], ["operator", a.operator], ["parameters", JSON.stringify(a.params)],
                 ["stand-in", a.standin ? JSON.stringify(a.standin) : "—"], ["requests", (a.requests || []).map((r) => `${r.command} by ${r.by}${r.at ? " at " + r.at : ""}`).join("; ") || "—"]];
   $("acq-details").replaceChildren(...rows.map(([k, v]) => el("tr", {}, el("td", { text: k }), el("td", { text: v }))));
 }
 
+// --- the rig's state: PLC, drives, interlocks, e-stop latch (every progress event carries it) ---
+const PLC_MODE_LEVEL = { run: "ok", ready: "ok", startup: "warn", safe: "bad" };
+const PLC_BITS_SHOWN = ["pump_running", "cooling_on", "homing", "homed", "drives_stopped", "fault_latched", "watchdog_fault"];
+const RIG_STALE_MS = 2000;        // no event for this long while running: the panel says it is not live
+const rigView = { state: null, received: 0, sig: "" };
+
+const lamp = (kind, name, text, level, stateText, title) => el("span", { class: `lamp ${level}`, "data-kind": kind,
+  "data-name": name, "data-state": stateText, "data-level": level, title: title || "", text });
+
+function drawRigState(r) {
+  const plc = r.plc;
+  const plcLamps = [
+    lamp("plc", "mode", `mode ${plc.mode}`, plc.link ? (PLC_MODE_LEVEL[plc.mode] || "warn") : "bad", plc.mode,
+         `plc_mode ${plc.mode_code}, status word 0x${(plc.status_bits || 0).toString(16).padStart(4, "0")}`),
+    lamp("plc", "fault", `fault ${plc.fault}`, plc.fault_code ? "bad" : (plc.fault_code === 0 ? "ok" : "warn"), plc.fault),
+    lamp("plc", "link", plc.link ? "link" : "link down", plc.link ? "ok" : "bad", plc.link ? "up" : "down",
+         plc.age_s === null ? "no status yet" : `latest status ${fmt(plc.age_s, 2)} s old`),
+    lamp("plc", "safe", r.safe ? "rig safe (latched)" : "rig armed", r.safe ? "bad" : "ok", r.safe ? "safe" : "armed"),
+    ...PLC_BITS_SHOWN.filter((b) => plc.bits[b]).map((b) =>
+      lamp("plc-bit", b, b.replace(/_/g, " "), ["drives_stopped", "fault_latched", "watchdog_fault"].includes(b) ? "bad" : "ok", "set")),
+  ];
+  $("rs-plc").replaceChildren(...plcLamps);
+  $("rs-drives").replaceChildren(...(r.drives.length ? r.drives.map((d) => lamp("drive", `m${d.motor}`,
+    `M${d.motor} ${d.active ? d.state : "dropped"}`, d.fault || !d.active ? "bad" : (d.enabled ? "ok" : "warn"), d.state,
+    `node ${d.node_id}, statusword ${d.statusword === null ? "—" : "0x" + d.statusword.toString(16).padStart(4, "0")}` +
+    `${d.temperature === null ? "" : ", " + fmt(d.temperature, 3) + " °C"}${d.dropped_reason ? ", dropped: " + d.dropped_reason : ""}`))
+    : [el("span", { class: "hint", text: "no drives configured" })]));
+  $("rs-interlocks").replaceChildren(...r.interlocks.map((i) => lamp("interlock", i.name,
+    i.tripped ? `${i.name} TRIPPED` : i.name, i.tripped ? "bad" : "ok", i.tripped ? "tripped" : "ok", i.message || "")));
+  const e = $("rs-estop");
+  e.dataset.latched = String(r.estop_latched);
+  e.className = `latch ${r.estop_latched ? "bad" : "ok"}`;
+  e.textContent = r.estop_latched ? `E-STOP LATCHED${r.estop_reason ? " — " + r.estop_reason : ""}` : "E-stop released";
+}
+
+// Shows the rig's state `r` (null: none known). live: it came from a running acquisition just now.
+function showRigState(r, live) {
+  if (r) {
+    const sig = JSON.stringify(r, (k, v) => (k === "at" || k === "age_s") ? undefined : v);
+    if (sig !== rigView.sig) { rigView.sig = sig; drawRigState(r); }
+    rigView.state = r;
+  }
+  setRigLive(live);
+}
+
+function setRigLive(live) {
+  const box = $("rig-state"), r = rigView.state;
+  box.dataset.live = String(!!(live && r));
+  if (!r) { $("rs-live").textContent = "no acquisition has reported the rig's state since the service started"; return; }
+  const when = new Date(r.at * 1000).toLocaleTimeString();
+  $("rs-live").textContent = live ? `live · ${when}` : `NOT LIVE — last known state at ${when}`;
+}
+
+function rigStaleCheck() {
+  if (!rigView.state) return;
+  setRigLive(ACTIVE.includes($("acq-state").textContent) && Date.now() - rigView.received < RIG_STALE_MS);
+}
+
 function onProgress(p) {
   if (p.sent_at) {          // the event's delivery latency (one machine, one clock), kept for the load bench
     (window.__latencies = window.__latencies || []).push(Date.now() / 1000 - p.sent_at);
-    if (window.__latencies.length > 100000) window.__latencies.shift();
+    (window.__received = window.__received || []).push(Date.now() / 1000);
+    if (window.__latencies.length > 100000) { window.__latencies.shift(); window.__received.shift(); }
+  }
+  if (p.rig) {
+    rigView.received = Date.now();
+    showRigState(p.rig, ACTIVE.includes($("acq-state").textContent));
   }
   $("acq-phase").textContent = p.phase ? `phase ${p.phase}` : "";
   $("acq-progress").value = p.fraction || 0;

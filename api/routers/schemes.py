@@ -183,17 +183,23 @@ def get_acquisition(_: Viewer, acq: Acq) -> dict[str, Any]:
     return acq.snapshot()
 
 
-def _progress_event(acq: Acquisition) -> dict[str, Any]:
-    return {"run_id": acq.run_id, **(acq.progress or {})}
+def _progress_since(acq: Acquisition, seen: int) -> list[tuple[int, str]]:
+    """The progress events after sequence number `seen`, oldest first, as (sequence number,
+    JSON text) (a client that connects gets the latest one only: the last known state)."""
+    recent = list(acq.recent_progress)
+    if seen < 0:
+        return recent[-1:]
+    return [(n, p) for n, p in recent if n > seen]
 
 
 @router.get("/acquisitions/{acq_id}/events", response_class=EventSourceResponse,
             summary="Server-sent events: `state` on each change, `progress` (phase, fraction, "
-                    "live channels, the live twin) about every 0.25 s, `end` with the run's "
-                    "final status")
+                    "live channels, the rig's state — PLC, drives, interlocks, e-stop latch — "
+                    "the live twin) every 0.2 s and once more after make-safe, `end` with the "
+                    "run's final status")
 async def acquisition_events(_: Viewer, acq: Acq,
                              request: Request) -> AsyncIterable[ServerSentEvent]:
-    seen_version, seen_state, seen_progress = -1, None, None
+    seen_version, seen_state, seen_seq = -1, None, -1
     idle = 0.0
     while True:
         if acq.version != seen_version:
@@ -202,9 +208,9 @@ async def acquisition_events(_: Viewer, acq: Acq,
                 seen_state = acq.state
                 yield ServerSentEvent(event="state", data={"state": acq.state,
                                                            "run_id": acq.run_id})
-            if acq.progress is not None and acq.progress is not seen_progress:
-                seen_progress = acq.progress
-                yield ServerSentEvent(event="progress", data=_progress_event(acq))
+            for seq, text in _progress_since(acq, seen_seq):   # every one, none merged
+                seen_seq = seq
+                yield ServerSentEvent(event="progress", raw_data=text)
             if acq.state == "ended":
                 yield ServerSentEvent(event="end", data=acq.snapshot())
                 return
