@@ -176,11 +176,17 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     laws = _law_effects(rep)
     law_of_truth = "transmission" if effect in TRANSMISSION_EFFECTS else "output"
     first = laws[law_of_truth][0] if effect and laws[law_of_truth] else None
+    # effects the report says the runs cannot tell apart from a named one (its ambiguity set,
+    # said in the verdict's text too): naming one names the set
+    sets = rep["verdict"].get("ambiguity_sets") or {}
+    alike = {e: list((sets.get(e) or {}).get("effects") or []) for e in rep["verdict"]["effects"]}
     return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
             "form": form, "enr": enr, "enr_realised": realised,
             "status": rep["verdict"]["status"], "effects": list(rep["verdict"]["effects"]),
             "laws": laws, "named_first": first,
-            "extra": [e for e in rep["verdict"]["effects"] if e != effect],
+            "first_alike": alike.get(first, []) if first else [],
+            "extra": [e for e in rep["verdict"]["effects"]
+                      if e != effect and effect not in alike.get(e, [])],
             "shrinkages": _law_shrinkages(rep), "seconds": seconds}
 
 
@@ -226,6 +232,13 @@ def validate_independent(seeds: int = 1, first_seed: int = 1, quick: bool = Fals
             "variants": [v.name for v in vs], "seeds": seeds, "first_seed": first_seed}
 
 
+def _hit(c: dict) -> bool:
+    """The withheld effect named first on its law, alone or in the ambiguity set the report
+    gives for the first effect (e.g. a Coulomb level per direction is a constant torque in
+    steady sliding: `torque_offset (≡ asymmetric_friction on these runs)`)."""
+    return c["named_first"] == c["effect"] or c["effect"] in c.get("first_alike", [])
+
+
 def score(cells: list[dict]) -> dict[str, Any]:
     """The issue's figures on the independent cells."""
     out: dict[str, Any] = {}
@@ -236,14 +249,14 @@ def score(cells: list[dict]) -> dict[str, Any]:
     out["top1"] = {}
     for enr in sorted({c["enr"] for c in single}):
         cs = [c for c in single if c["enr"] == enr]
-        out["top1"][str(enr)] = float(np.mean([c["named_first"] == c["effect"] for c in cs]))
+        out["top1"][str(enr)] = float(np.mean([_hit(c) for c in cs]))
     ge1 = [c for c in single if c["enr"] >= 1.0]
-    out["top1_enr_ge_1"] = (float(np.mean([c["named_first"] == c["effect"] for c in ge1]))
-                            if ge1 else None)
+    out["top1_enr_ge_1"] = float(np.mean([_hit(c) for c in ge1])) if ge1 else None
+    out["top1_through_ambiguity_set"] = int(sum(_hit(c) and c["named_first"] != c["effect"]
+                                                for c in single))
     fam: dict[str, dict[str, list]] = {}
     for c in ge1:
-        fam.setdefault(c["effect"], {}).setdefault(c["form"], []).append(
-            c["named_first"] == c["effect"])
+        fam.setdefault(c["effect"], {}).setdefault(c["form"], []).append(_hit(c))
     out["top1_by_form_enr_ge_1"] = {e: {f: float(np.mean(v)) for f, v in forms.items()}
                                     for e, forms in fam.items()}
     out["top1_by_family_enr_ge_1"] = {e: float(np.mean([x for v in forms.values() for x in v]))
@@ -260,7 +273,7 @@ def score(cells: list[dict]) -> dict[str, Any]:
         s1 = [c for c in cv if c["kind"] == "single" and c["enr"] >= 1.0]
         nv = [c for c in cv if c["kind"] == "none"]
         out["by_variant"][v] = {
-            "top1_enr_ge_1": float(np.mean([c["named_first"] == c["effect"] for c in s1]))
+            "top1_enr_ge_1": float(np.mean([_hit(c) for c in s1]))
             if s1 else None,
             "none_verdict": float(np.mean([c["status"] == "none" for c in nv])) if nv else None,
             "median_seconds": float(np.median([c["seconds"] for c in cv]))}
@@ -318,6 +331,9 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
         g = own_map["top-1 at ENR >= 1"] - s["top1_enr_ge_1"]
         lines.append(f"{'own-emulator minus independent top-1':42} {'':6} {'':6} {g:6.3f}  "
                      f"<= 0.05  {'ok' if g <= 0.05 else 'NO'}")
+    if s.get("top1_through_ambiguity_set"):
+        lines.append(f"(top-1 counts {s['top1_through_ambiguity_set']} single-effect campaigns "
+                     "whose effect was named in the first effect's ambiguity set)")
     lines += ["", "top-1 at ENR >= 1 by family and form:"]
     for e, forms in sorted(s["top1_by_form_enr_ge_1"].items()):
         lines.append(f"  {e:26} " + ", ".join(f"{f} {v:.2f}" for f, v in forms.items()))
@@ -326,7 +342,7 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
         lines.append(f"  {v:40} top-1 {_fmt(d['top1_enr_ge_1'])}  none {_fmt(d['none_verdict'])}"
                      f"  median diagnosis {d['median_seconds']:.1f} s")
     missed = [c for c in ind["cells"] if (c["kind"] == "single" and c["enr"] >= 1.0
-                                          and c["named_first"] != c["effect"])
+                                          and not _hit(c))
               or (c["kind"] == "none" and c["status"] != "none")]
     if missed:
         lines += ["", f"cells missed ({len(missed)}):"]

@@ -83,7 +83,7 @@ from core import effects as fx
 from core.documents import DiagnosisReport
 from core.run import RunData
 
-OPTIONAL_SIGNALS = ("q", "qd", "qdd", "torque", "torque_load", "torque_rate", "temp_joint",
+OPTIONAL_SIGNALS = ("q", "qd", "qdd", "u", "torque", "torque_load", "torque_rate", "temp_joint",
                     "torsion", "torsion_rate")
 """Signals prepared when a run can supply them (regions and candidate terms use them)."""
 
@@ -126,6 +126,9 @@ def _pool(runs: Sequence[RunData], need: Sequence[str], prep: PrepOptions, run0:
             if np.any(np.abs(rate) > 0):
                 d["torsion_rate"] = rate
         d["scheme"] = np.full(s.n, run.meta.get("scheme", "?"), dtype=object)
+        # the reduction turns u (the motor angle referred to the output) into the motor angle,
+        # on which a motor-side ripple is periodic (0: the run does not say)
+        d["reduction"] = np.full(s.n, float(run.meta.get("reduction") or 0.0))
         d["has_load"] = np.full(s.n, bool(s.info.get("has_torque_load")))
         parts.append(d)
     keys = set(parts[0])
@@ -601,7 +604,12 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         report["series"] = _series(pooled, len(train_runs), model, e_all, e_fin, angle_order,
                                    report["regions"], opt)
     shapes = {st["effect"]: st["shape"] for st in steps}
-    tx = (transmission_diagnosis(train_runs, test_runs, transmission, prep, opt)
+    # what the output law found on the torque channel (an offset, a lag) is in the reading
+    # that the twist–torque law fits too: that law starts from it, so a sensor's fault is not
+    # diagnosed a second time as a transmission effect (a lag draws a loop, a drift a state)
+    on_channel = tuple(e for e in chosen if fx.VOCABULARY[e].acts_on == "sensor")
+    tx = (transmission_diagnosis(train_runs, test_runs, transmission, prep, opt,
+                                 carried=on_channel)
           if transmission is not None and model.kind != "transmission" else None)
     if tx is not None:
         merge_transmission(report, tx.report)
@@ -650,11 +658,15 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
 
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                            spec: str | LinearModel = "auto", prep: PrepOptions | None = None,
-                           options: DiagnosisOptions | None = None) -> Diagnosis | None:
+                           options: DiagnosisOptions | None = None,
+                           carried: Sequence[str] = ()) -> Diagnosis | None:
     """The same diagnosis (regions, candidates, greedy held-out selection, verdict) of the
     twist-vs-torque law: nominal transmission_model(spec), candidates the vocabulary's
-    transmission effects (backlash; hysteresis when the nominal law lacks it). None when a run
-    lacks the twist (torsion, or u and q) or the torque channel."""
+    transmission effects (backlash; hysteresis when the nominal law lacks it). `carried`: effects
+    of the torque channel (acts_on 'sensor') already found on the output law; the nominal law
+    takes their columns (fitted on this law) and they are not candidates here (report
+    `baseline.carried`). None when a run lacks the twist (torsion, or u and q) or the torque
+    channel."""
     opt = options or DiagnosisOptions()
     prep = prep or PrepOptions()
     runs = list(train_runs) + list(test_runs)
@@ -669,6 +681,10 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     tprep = replace(prep, decimate=prep.decimate * opt.transmission_decimate)
     tr = _pool(train_runs, TRANSMISSION_SIGNALS, tprep, 0)
     model, shape = transmission_model(spec, tr, opt)
+    for name in carried:
+        if fx.VOCABULARY[name].acts_on != "sensor":
+            raise ValueError(f"only effects of the torque channel carry over, not {name!r}")
+        model = model.with_effect(name)
     cands = tuple(n for n in (opt.candidates or fx.EFFECT_NAMES)
                   if n in fx.VOCABULARY and fx.VOCABULARY[n].acts_on == "transmission")
     if not cands:
@@ -679,4 +695,5 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
                    predictor=opt.transmission_predictor)
     d = diagnose_detailed(train_runs, test_runs, model, tprep, topt, transmission=None)
     d.report["baseline"]["shape"] = shape
+    d.report["baseline"]["carried"] = list(carried)
     return d

@@ -17,9 +17,10 @@ from estimator.models import LinearModel
 
 
 def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
-                disp: str = "torsion") -> list[dict]:
+                disp: str = "torsion", kind: str = "output") -> list[dict]:
     """Shapes to search for effect `name`, scaled by the training signals; `disp` is the
-    displacement a transmission effect acts on (the twist, or q on a law without one)."""
+    displacement a transmission effect acts on (the twist, or q on a law without one), `kind`
+    the law's (estimator.models.LinearModel.kind)."""
     if name == "stribeck":
         top = float(np.quantile(np.abs(sig["qd"]), 0.99)) or 1.0
         return [{"v_s": r * top, "delta": d} for d in opt.stribeck_delta
@@ -30,16 +31,32 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # not a ripple; then screen by the nominal residual's angular lines, fit the strongest
         travel = float(np.ptp(sig["q"]))
         orders = np.asarray([k for k in opt.ripple_orders if k * travel >= 4.0 * np.pi])
-        if orders.size == 0:
+        shapes = []
+        if orders.size:
+            top = angle_lines(e_train, sig["q"], orders).get("top_orders")
+            shapes = [{"order": float(k)} for k in (top or orders)]
+        # a ripple of the motor side (its bearings, the first gear stage): periodic in the
+        # motor angle N·u, opt.motor_ripple_orders cycles per motor revolution, when the runs
+        # carry u and say their reduction N (the order on u is then k·N)
+        n_red = float(sig["reduction"][0]) if "reduction" in sig and sig["reduction"].size else 0.0
+        if "u" in sig and n_red > 0 and np.ptp(sig["u"]) * n_red >= 4.0 * np.pi:
+            m_orders = np.asarray(opt.motor_ripple_orders, dtype=float) * n_red
+            top = angle_lines(e_train, sig["u"], m_orders).get("top_orders") or []
+            shapes += [{"order": float(k), "motor": 1.0} for k in top[:2]]
+        if not shapes:
             raise ValueError("the runs' travel covers no ripple period of the orders searched")
-        top = angle_lines(e_train, sig["q"], orders).get("top_orders")
-        return [{"order": float(k)} for k in (top or orders)]
+        return shapes
     if name == "backlash":
         # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)
         top = float(np.quantile(np.abs(sig[disp]), 0.99)) or 1e-3
         return [{"b": r * top} for r in opt.backlash_b_rel]
     if name == "hysteresis":
         return bouc_wen_grid(sig, opt, disp)
+    if name == "load_dependent_friction" and kind == "output":
+        # a gear's: one law for both power-flow directions, or one coefficient per direction
+        # (driving or back-driven; on a system without a gear the split column is only an
+        # energy loss per cycle, which hysteresis also is)
+        return [{}, {"power_flow": 1.0}]
     return [{}]
 
 
@@ -79,7 +96,7 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
             skipped[name] = "diagnosed on the twist–torque law (the runs carry the twist)"
             continue
         try:
-            grid = _shape_grid(name, sig, opt, e_train, disp)
+            grid = _shape_grid(name, sig, opt, e_train, disp, model.kind)
             models = [(shape, model.with_effect(name, **shape)) for shape in grid]
             models[0][1].design({k: v[:8] for k, v in sig.items()})
         except KeyError as exc:

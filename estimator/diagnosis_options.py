@@ -31,6 +31,10 @@ class DiagnosisOptions:
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))
+    """Gear-ripple orders searched on the output angle [cycles per output revolution]."""
+    motor_ripple_orders: tuple[int, ...] = (1, 2, 3, 4, 6)
+    """Gear-ripple orders searched on the motor angle [cycles per motor revolution] (the motor's
+    and first stage's periodic torques), when the runs carry u and their reduction."""
     stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
     stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)

@@ -29,6 +29,7 @@ def merge_transmission(report: DiagnosisReport, tx: DiagnosisReport) -> None:
                           **{e: law1 for e in tv["effects"] if e not in v["effects"]}}
     v["effects"] = v["effects"] + [e for e in tv["effects"] if e not in v["effects"]]
     v["shapes"] = {**tv["shapes"], **v["shapes"]}
+    v["ambiguity_sets"] = {**tv.get("ambiguity_sets", {}), **v.get("ambiguity_sets", {})}
     v["status"] = combined_status([v["status"], tv["status"]])
 
 
@@ -62,8 +63,16 @@ def verdict_summary(report: DiagnosisReport) -> str:
     if report.get("transmission"):
         laws.append((report["transmission"], report["transmission"]["baseline"]["model"]))
     models = v.get("effect_models") or {}
+    sets = v.get("ambiguity_sets") or {}
+
+    def name(e: str) -> str:
+        # an effect whose contribution the runs cannot tell from another's is named with it
+        alike = (sets.get(e) or {}).get("effects") or []
+        return f"{e} (≡ {' or '.join(alike)} on these runs)" if alike else e
+
     for rep, law in laws:
-        named = [e for e in v["effects"] if models.get(e, report["baseline"]["model"]) == law]
+        named = [name(e) for e in v["effects"]
+                 if models.get(e, report["baseline"]["model"]) == law]
         if not named:
             continue
         sh = rep["shrinkage"]["overall"]

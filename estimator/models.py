@@ -232,12 +232,15 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     stribeck                  f_s · stribeck_torque(q̇, 1, v_s, delta)  (output; the curve's
                               exponent delta, or 0 for the Lorentzian, is a shape)
     load_dependent_friction   mu · |T|·sgn q̇ + mu_v · |T|·q̇                      (output; T is the
-                              measured torque, an errors-in-variables approximation)
+                              measured torque, an errors-in-variables approximation); shape
+                              power_flow=1: mu_drive · |T|·sgn q̇·[T·q̇ > 0] + mu_back · |T|·sgn q̇·
+                              [T·q̇ ≤ 0] (driving vs back-driven efficiency)
     temperature_friction      (T_ref − temp)·(c_T·sgn q̇ + c_Tv·q̇)                 (output)
     asymmetric_friction       d_v · asym(q̇, 0, 1): the positive direction's extra viscous slope
                               (its extra Coulomb level is a constant to Eq. 4: a torque offset)
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
-                              (the unknown phase made linear); one column A if `phase` is given
+                              (the unknown phase made linear); one column A if `phase` is given;
+                              shape motor=1: the same on u (the motor angle over N, `order` = k·N)
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor)
     time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
     hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
@@ -249,6 +252,15 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     if name not in fx.VOCABULARY:
         raise ValueError(f"unknown effect {name!r}; the vocabulary is {list(fx.EFFECT_NAMES)}")
     eff = fx.VOCABULARY[name]
+    # gear_ripple's `motor` shape (a diagnosis family member, not an emulator parameter): the
+    # ripple is periodic in the motor angle u·N, `order` then counts cycles per turn of u
+    motor = bool(shape.get("motor", 0.0)) if name == "gear_ripple" else False
+    # load_dependent_friction's `power_flow` shape likewise: a coefficient per power-flow sign
+    power_flow = (bool(shape.get("power_flow", 0.0)) if name == "load_dependent_friction"
+                  else False)
+    shape = {k: v for k, v in shape.items()
+             if not ((name == "gear_ripple" and k == "motor")
+                     or (name == "load_dependent_friction" and k == "power_flow"))}
     bw_keys = {"alpha", "beta", "gamma", "n"}
     if name == "hysteresis":
         bad = set(shape) - bw_keys
@@ -277,6 +289,14 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         v_s, delta = shape_params["v_s"], shape_params["delta"]
         return Term(name, ("f_s",), ("N·m",),
                     lambda s: fx.stribeck_torque(s["qd"], 1.0, v_s, v_eps, delta), ("qd",))
+    if name == "load_dependent_friction" and power_flow:
+        # a gear's efficiency differs when the motor drives the load (T·q̇ > 0) and when the load
+        # back-drives it: one Coulomb-like coefficient per direction of the power flow
+        def split(s):
+            c = fx.load_dependent_friction_torque(s["qd"], s["torque"], 1.0, v_eps, 0.0)
+            drive = s["torque"] * s["qd"] > 0
+            return np.column_stack([np.where(drive, c, 0.0), np.where(drive, 0.0, c)])
+        return Term(name, ("mu_drive", "mu_back"), ("-", "-"), split, ("qd", "torque"))
     if name == "load_dependent_friction":
         return Term(name, ("mu", "mu_v"), ("-", "s/rad"),
                     lambda s: np.column_stack([
@@ -299,6 +319,11 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
+        if motor:   # periodic in the motor angle: `order` cycles per output revolution of u
+            return Term(name, ("A_sin", "A_cos"), ("N·m", "N·m"),
+                        lambda s: np.column_stack([fx.gear_ripple_torque(s["u"], 1.0, order, 0.0),
+                                                   fx.gear_ripple_torque(s["u"], 1.0, order,
+                                                                         np.pi / 2)]), ("u",))
         if "phase" in shape:
             ph = shape_params["phase"]
             return Term(name, ("A",), ("N·m",),
