@@ -11,7 +11,12 @@
 4. Eq. 4 identified by least squares, the exact posterior, MH and SGHMC side by side.
 5. A sim-to-real diagnosis of a campaign with a hidden effect: the verdict, then the truth.
 6. Identification jobs on the runs stored in section 3 — one per scheme, through the service's
-   job queue (db/jobs.py) and a job worker — and their test reports written as HTML files."""
+   job queue (db/jobs.py) and a job worker — and their test reports written as HTML files.
+
+Stdout carries the demonstration; stderr shows the progress of every section that takes more
+than a moment (commands.progress): the emulated runs counted, each acquisition's plan time, the
+samplers' chains (ChainBars), the diagnosis's stages (StageBar) — bars on a terminal, plain
+lines every few seconds otherwise."""
 
 from __future__ import annotations
 
@@ -91,9 +96,12 @@ def emulate_schemes(seed: int, quick: bool = False) -> list:
             for direction in directions:
                 plans.append(cls(motor_speed_rpm=speed, direction=direction))
     plans.append(Scheme3())
+    from commands.progress import progress
     runs = []
-    for i, plan in enumerate(plans):
-        runs.append(simulate(plan, cfg.replace(seed=seed + i)))
+    with progress(len(plans), "emulated runs", "run") as bar:
+        for i, plan in enumerate(plans):
+            runs.append(simulate(plan, cfg.replace(seed=seed + i)))
+            bar.update(1)
     return runs
 
 
@@ -120,9 +128,12 @@ def redundancy_check(seed: int) -> dict:
     from simulators.config import EmulatorConfig
     from simulators.offline import simulate
 
+    from commands.progress import progress
     plan = Scheme1(motor_speed_rpm=3000.0)
     t_fail = plan.duration() / 2
-    run = simulate(plan, EmulatorConfig(seed=seed, failed_motors={0: t_fail}))
+    with progress(1, "redundancy run", "run") as bar:
+        run = simulate(plan, EmulatorConfig(seed=seed, failed_motors={0: t_fail}))
+        bar.update(1)
     s = run.samples
     t = s["t"].to_numpy()
     # symmetric windows around the failure: the load ramp is symmetric about the top, so both
@@ -140,6 +151,30 @@ def redundancy_check(seed: int) -> dict:
 def _db_label() -> str:
     from db.engine import database_url
     return database_url()
+
+
+class PlanTimeBar:
+    """A daq.engine progress callback drawing one bar of the run's plan time [s of rig time]
+    on stderr (commands.progress.progress: its rate is rig seconds per wall second)."""
+
+    def __init__(self, desc: str) -> None:
+        self.desc = desc
+        self.bar = None
+        self.done = 0
+
+    def __call__(self, p) -> None:
+        from commands.progress import progress
+        if self.bar is None:
+            self.bar = progress(max(1, int(round(p.duration))), self.desc, "s")
+        t = min(int(p.t), self.bar.total) if self.bar.total else int(p.t)
+        if t > self.done:
+            self.bar.update(t - self.done)
+            self.done = t
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
 TIME_SCALE = 10.0
@@ -166,21 +201,27 @@ def acquire_over_protocols(quick: bool) -> list:
 
     speeds = (3000.0,) if quick else (300.0, 3000.0)
     plans = [Plan.of(n, motor_speed_rpm=v) for n in (1, 2) for v in speeds]
-    # the PLC is polled at 200 Hz of wall time: 20 Hz of rig time at 10x
+    # 20 Hz of rig time at 10x needs a 200 Hz PLC poll of wall time; 300 Hz leaves the margin
+    # a loaded machine needs (the stand-in then catches up in bursts: the engine measured
+    # 11.6 rig s per wall s once, and refuses a rate the poll cannot deliver)
     plans.append(Plan.of(3, sample_rate_hz=20.0))
     out = []
     with StandinProcess(["--time-scale", str(TIME_SCALE), "--seed", "7",
                          "--watchdog", str(LINK_SLACK_S)]) as standin, Store() as store:
         settings = dataclasses.replace(Settings.load(), plc_port=standin.plc_port,
-                                       can_port=standin.can_port, plc_poll_hz=200.0,
+                                       can_port=standin.can_port, plc_poll_hz=300.0,
                                        tpdo_rate_hz=100.0, plc_link_timeout=LINK_SLACK_S,
                                        drive_heartbeat_timeout=LINK_SLACK_S)
         for plan in plans:
-            engine = Engine(Rig(settings), store, source="emulator", rig_name="J4-emulator",
-                            operator="demo", reset_watchdog_fault=True)
-            outcome = asyncio.run(engine.run(plan))
             speed = getattr(plan.scheme, "motor_speed_rpm", None)
             label = plan.name + (f" at {speed:.0f} r/min" if speed else " (Fourier)")
+            bar = PlanTimeBar(f"acquiring {label}")
+            engine = Engine(Rig(settings), store, source="emulator", rig_name="J4-emulator",
+                            operator="demo", reset_watchdog_fault=True, progress=bar)
+            try:
+                outcome = asyncio.run(engine.run(plan))
+            finally:
+                bar.close()
             print(f"   run {outcome.run_id}: {label:<22} {outcome.exit_status:<8} "
                   f"{outcome.n_samples:>6} samples, {outcome.missed} missed, "
                   f"{outcome.interruptions} interruptions", flush=True)
@@ -216,15 +257,19 @@ def print_excitation() -> None:
 
 def identify_eq4(run) -> str:
     """Eq. 4 by least squares, the exact posterior, MH and SGHMC side by side (paper Table 3)."""
+    from commands.progress import ChainBars
     from estimator.identify import identify
     from estimator.preprocess import PrepOptions
+    from estimator.sampler_progress import reporting
     from estimator.tables import parameter_table
     from core.params import RIGID_BODY_PARAMS, JointParams
 
     # 1 kHz scheme-3 data decimated 10x (anti-aliased): the same estimates, a tenth of the work
     prep = PrepOptions(min_speed=2e-4, decimate=10)
-    fits = [identify([run], "eq4", method, prep=prep, seed=0)
-            for method in ("ls", "exact", "mh", "sghmc")]
+    fits = []
+    for method in ("ls", "exact", "mh", "sghmc"):
+        with ChainBars(method) as bars, reporting(bars):
+            fits.append(identify([run], "eq4", method, prep=prep, seed=0))
     truth = JointParams()
     lines = [parameter_table(fits, title="Eq. 4 on scheme 3")]
     lines.append("   truth: " + ", ".join(f"{n} = {getattr(truth, n):g}" for n in RIGID_BODY_PARAMS))
@@ -240,11 +285,16 @@ def diagnose_hidden_effect(seed: int) -> str:
     """Simulate a training/held-out campaign with a hidden effect at effect-to-noise ratio 2,
     diagnose it blind against Eq. 4, print the verdict, then the truth."""
     from estimator.diagnosis import diagnose
+    from estimator.diagnosis_progress import reporting
     from commands.diagnosis_harness import magnitude_for, simulate_campaign
+    from commands.progress import StageBar, progress
 
     hidden = HIDDEN_CANDIDATES[np.random.default_rng(seed).integers(len(HIDDEN_CANDIDATES))]
-    train, test = simulate_campaign({hidden: magnitude_for(hidden, 2.0)}, seed)
-    rep = diagnose(train, test, "eq4")
+    with progress(1, "simulated campaign", "campaign") as bar:
+        train, test = simulate_campaign({hidden: magnitude_for(hidden, 2.0)}, seed)
+        bar.update(1)
+    with StageBar("diagnosis") as bar, reporting(bar):
+        rep = diagnose(train, test, "eq4")
     b = rep["baseline"]
     lines = [f"   baseline {b['model']}: RMSE train {b['rmse_train']:.0f} N·m, "
              f"held-out {b['rmse_test']:.0f} N·m ({len(train)} training, {len(test)} held-out runs)"]
@@ -301,7 +351,9 @@ def identification_reports(acquired: list, report_dir: str) -> list[tuple[int, s
     from api.job_kinds import KINDS
     from api.reports import job_report, job_report_html
     from api.worker import Worker
+    from commands.progress import ChainBars
     from db.engine import database_url
+    from estimator.sampler_progress import reporting
 
     out_dir = Path(report_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -319,8 +371,10 @@ def identification_reports(acquired: list, report_dir: str) -> list[tuple[int, s
                 {"run_ids": ids, "model": model, "method": method,
                  "options": DEMO_OPTIONS[method]}).model_dump()
             job, _ = queue.submit(worker.store, "identification", params)
-            while worker.run_once() not in (job["id"], None):   # leftover queued jobs first
-                pass
+            # the job runs in this thread: its sampler's chains report to the bars
+            with ChainBars(f"scheme {scheme} {method}") as bars, reporting(bars):
+                while worker.run_once() not in (job["id"], None):   # leftover queued jobs first
+                    pass
             job = queue.get_job(worker.store, job["id"])
             path = out_dir / f"job-{job['id']}-scheme{scheme}.html"
             path.write_text(job_report_html(job_report(worker.store, job["id"])), encoding="utf-8")

@@ -4,7 +4,12 @@ diagnosis of issue 7 (estimator.diagnosis) on run files or stored runs.
 RUN is a run file (<stem>.csv/.parquet with <stem>.json beside it, or an EMPS .mat record) or the
 integer id of a run in the database (db.store.Store). --rename maps other rigs' channel names onto
 the joint's (e.g. EMPS: qm=q,force=torque, with --model emps). --json prints the report object
-(baseline, regions, candidates, verdict, tests, shrinkage, ...); without it, a text summary."""
+(baseline, regions, candidates, verdict, tests, shrinkage, ...); without it, a text summary.
+
+While the diagnosis works, stderr shows its stage with a count (commands.progress.StageBar:
+`output law: candidates 4/9`, `output law: greedy round 2`, `twist–torque law: candidates
+1/2`): one bar on a terminal, plain lines every few seconds otherwise; stdout keeps the
+report alone."""
 
 from __future__ import annotations
 
@@ -113,7 +118,9 @@ def run(args: argparse.Namespace) -> int:
     import json
     import sys
     from dataclasses import replace
+    from commands.progress import StageBar
     from estimator.diagnosis import DiagnosisOptions, diagnose
+    from estimator.diagnosis_progress import reporting
     from estimator.preprocess import PrepOptions
     try:
         ren = _parse_rename(args.rename)
@@ -124,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
             opt = replace(opt, candidates=tuple(e.strip() for e in args.effects.split(",")))
         prep = PrepOptions(cutoff_hz=args.cutoff, decimate=args.decimate)
         tx = None if args.transmission.lower() == "none" else args.transmission
-        rep = diagnose(train, test, args.model, prep=prep, options=opt, transmission=tx)
+        with StageBar("diagnosis") as bar, reporting(bar):
+            rep = diagnose(train, test, args.model, prep=prep, options=opt, transmission=tx)
     except (OSError, KeyError, ValueError) as exc:
         print(f"rig diagnose: {exc}", file=sys.stderr)
         return 2

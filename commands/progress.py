@@ -16,6 +16,12 @@ chain:
 
     with ChainBars("mh") as bars, reporting(bars):
         fit = identify(...)
+
+The diagnosis's stages (estimator.diagnosis_progress's callback) are drawn by StageBar, one bar
+whose description follows the stage:
+
+    with StageBar() as bar, diagnosis_progress.reporting(bar):
+        rep = diagnose(...)
 """
 
 from __future__ import annotations
@@ -191,6 +197,75 @@ class ChainBars:
             self._close_all()
 
     def __enter__(self) -> "ChainBars":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class StageBar:
+    """The estimator.diagnosis_progress callback of a command: one bar whose description follows
+    the diagnosis's stage (`output law: candidates 4/9`, `output law: greedy round 2`, ...), its
+    count and total the stage's. On a terminal, one tqdm bar reset at every new stage and sized
+    to the terminal's width at every redraw (it never wraps); otherwise throttled plain lines
+    (`diagnosis: output law: candidates 4/9, elapsed 00:12`), at most one every `interval_s`
+    and a last one when done — only for a diagnosis that lasted that long. `close()` (or the
+    `with` block's end) finishes the bar."""
+
+    def __init__(self, label: str = "diagnosis", stream: IO[str] | None = None,
+                 interval_s: float = PLAIN_INTERVAL_S, clock=time.monotonic) -> None:
+        self.label = label
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.interval_s = interval_s
+        self.clock = clock
+        self.bar: Any = None
+        self.stage: str | None = None
+        self.done = 0
+        self.total = 0
+        self.t0 = clock()
+        self.last = self.t0
+        self.printed = False
+
+    def line(self) -> str:
+        """The plain line of the current stage."""
+        return (f"{self.label}: {self.stage} {self.done}/{self.total}, "
+                f"elapsed {_fmt_s(self.clock() - self.t0)}")
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        new = stage != self.stage
+        self.stage, self.total = stage, total
+        if self.tty:
+            if self.bar is None:
+                from tqdm import tqdm
+                self.bar = tqdm(total=total, desc=stage, unit="fit", file=self.stream,
+                                dynamic_ncols=True, mininterval=0.2, leave=True)
+            elif new:
+                self.bar.set_description_str(stage, refresh=False)
+                self.bar.reset(total=total)
+            if done > self.bar.n:
+                self.bar.update(done - self.bar.n)
+            self.done = done
+            return
+        self.done = done
+        now = self.clock()
+        if now - self.last >= self.interval_s:
+            self.last = now
+            self.printed = True
+            print(self.line(), file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.tty:
+            if self.bar is not None:
+                self.bar.close()
+                self.bar = None
+        elif self.stage is not None and (self.printed
+                                         or self.clock() - self.t0 >= self.interval_s):
+            print(self.line() + " done", file=self.stream, flush=True)
+            self.printed = False
+        self.stage = None
+
+    def __enter__(self) -> "StageBar":
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -70,6 +70,7 @@ from estimator.diagnosis_candidates import (_candidate_models, _contribution, _e
                                             _score, bouc_wen_grid, predicted_shrinkage,
                                             run_consistency)
 from estimator.diagnosis_options import DiagnosisOptions
+from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage,
                                        cross_correlation, spectral_line, whiteness)
@@ -411,6 +412,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     test_runs = [lag_corrected(r) for r in test_runs]
     prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)
     model = base_model(base)
+    law = "twist–torque law" if model.kind == "transmission" else "output law"
+    progress(f"{law}: nominal fit", 0, 1)
     avail = set(_available(train_runs[0], prep))
     for r in list(train_runs[1:]) + list(test_runs):
         avail &= set(_available(r, prep))
@@ -438,11 +441,17 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     ang0 = angle_lines(e_all, pooled["q"], np.asarray(opt.ripple_orders)) if "q" in pooled else {}
     angle_order = ang0.get("order") if ang0.get("p_value", 1.0) < 1e-3 else None
     where = _structure(e_all, pooled, blocks, angle_order, opt)
+    progress(f"{law}: nominal fit", 1, 1)
 
     cands, skipped = _candidate_models(model, tr, opt, base_fit.e_train)
-    fits = {name: _best_shape(ms, tr, te) for name, ms in cands.items()}
+    fits = {}
+    progress(f"{law}: candidates", 0, len(cands))
+    for name, ms in cands.items():
+        fits[name] = _best_shape(ms, tr, te)
+        progress(f"{law}: candidates", len(fits), len(cands))
     table = []
     contrib = {name: _contribution(base_fit, f, tr) for name, f in fits.items()}
+    progress(f"{law}: scoring", 0, len(fits))
     for name, f in fits.items():
         row = {"effect": name, "model": model.name, "shape": f.shape,
                **_score(base_fit, f, te_blocks, opt, tr)}
@@ -456,6 +465,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                 if rho > 0.9:
                     row["ambiguous_with"].append(other)
         table.append(row)
+        progress(f"{law}: scoring", len(table), len(fits))
     table.sort(key=lambda r: r["rmse_test"])
 
     # greedy addition while the held-out gain stays significant: every round re-fits every
@@ -469,14 +479,21 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     remaining = list(fits)
     first = True
     while remaining and len(chosen) < opt.max_effects:
+        stage = f"{law}: greedy round {len(chosen) + 1}"
         if first:
             trial = {n: fits[n] for n in remaining}
+            progress(stage, 0, len(trial))
         else:
             grids, _ = _candidate_models(cur.model, tr, replace(opt, candidates=tuple(remaining)),
                                          cur.e_train)
-            trial = {n: _best_shape(ms, tr, te) for n, ms in grids.items()}
+            trial = {}
+            progress(stage, 0, len(grids))
+            for n, ms in grids.items():
+                trial[n] = _best_shape(ms, tr, te)
+                progress(stage, len(trial), len(grids))
         first = False
         scored = {n: _score(cur, f, te_blocks, opt) for n, f in trial.items()}
+        progress(stage, len(trial), len(trial))
         if not scored:
             break
         # the largest held-out gain among the significant candidates (a larger gain that is not
@@ -532,6 +549,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                   else "partly_explained")
 
     # how far it shrinks: overall and per flagged region, held-out, with intervals
+    progress(f"{law}: shrinkage", 0, 1)
     fam_te = label_regions(te, angle_order, opt.regions)
     shrink_regions = []
     overall = bootstrap_shrinkage(base_fit.e_test, cur.e_test, te_blocks, opt.n_boot, opt.seed)
@@ -553,6 +571,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                                "rmse_after": reg["rmse_test_after"], "shrinkage": s,
                                "ci95": [lo, hi]})
     moved = _moved(base_fit, cur, n_base)[0] if chosen else {}
+    progress(f"{law}: shrinkage", 1, 1)
     ambiguities = sorted({tuple(sorted([r["effect"], o])) for r in table
                           for o in r["ambiguous_with"]})
     report: DiagnosisReport = {
@@ -680,7 +699,9 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     # encoder step between samples carries spurious small loops that bias the shape
     tprep = replace(prep, decimate=prep.decimate * opt.transmission_decimate)
     tr = _pool(train_runs, TRANSMISSION_SIGNALS, tprep, 0)
+    progress("twist–torque law: nominal shape", 0, 1)
     model, shape = transmission_model(spec, tr, opt)
+    progress("twist–torque law: nominal shape", 1, 1)
     for name in carried:
         if fx.VOCABULARY[name].acts_on != "sensor":
             raise ValueError(f"only effects of the torque channel carry over, not {name!r}")

@@ -341,3 +341,88 @@ def test_chain_bars_start_a_new_set_for_each_fit_in_a_row():
     assert [x.split(":")[0] for x in done_lines] == [
         "fit 1 chain 1 sampling", "fit 1 chain 2 sampling",
         "fit 2 chain 1 sampling", "fit 2 chain 2 sampling"]
+
+
+@pytest.fixture(scope="module")
+def campaign_files(tmp_path_factory):
+    """A small campaign (independent harness, variant 0, seed 7: 8 training and 4 held-out
+    runs at 20 Hz) as run files; (train paths, test paths)."""
+    from commands.independent_harness import VARIANTS, simulate_campaign
+    from core.runfile import write_run
+    d = tmp_path_factory.mktemp("campaign")
+    train, test, _ = simulate_campaign(VARIANTS[0], 7)
+    paths = []
+    for name, runs in (("train", train), ("test", test)):
+        paths.append([])
+        for k, r in enumerate(runs):
+            write_run(r, d / f"{name}{k}", fmt="csv")
+            paths[-1].append(str(d / f"{name}{k}.csv"))
+    return paths
+
+
+def diagnose_cli(files, stderr, *extra: str) -> subprocess.CompletedProcess:
+    import sys
+    train, test = files
+    return subprocess.run([sys.executable, "-m", "commands.cli", "diagnose", "--train", *train,
+                           "--test", *test, "--transmission", "eq5", "--json", *extra],
+                          stdout=subprocess.PIPE, stderr=stderr, text=True, timeout=300)
+
+
+def test_rig_diagnose_draws_one_stage_bar_in_an_80_column_pty(campaign_files):
+    """The diagnosis's stages on one screen row of an 80-column terminal, every redraw within
+    the width and nothing wrapped, the description following the stage (both laws); stdout is
+    the JSON report alone."""
+    import json
+    master, stream = pty_stream(80)
+    try:
+        p = diagnose_cli(campaign_files, stream)
+        err = drain(master)
+    finally:
+        stream.close()
+        os.close(master)
+    assert p.returncode == 0, err
+    rep = json.loads(p.stdout)
+    assert rep["baseline"]["model"] == "eq4" and rep["transmission"]["baseline"]["model"] == "eq5"
+    lines = updates(err)
+    bar_lines = [line for line in lines if any(" law: " in u for u in line)]
+    assert len(bar_lines) == 1, lines            # every stage redrawn on the same screen line
+    redraws = bar_lines[0]
+    assert all(len(u) <= 80 for u in redraws), max(redraws, key=len)
+    assert any(re.match(r"output law: candidates: .*\d+/\d+", u) for u in redraws), redraws
+    assert any(u.startswith("output law: greedy round 1") for u in redraws), redraws
+    assert any(u.startswith("twist–torque law: candidates") for u in redraws), redraws
+    rows, wraps = screen(err, 80)
+    assert wraps == 0
+    assert [r for r in rows if r][-1].startswith("twist–torque law: shrinkage: 100%")
+
+
+def test_rig_diagnose_leaves_stderr_plain_and_stdout_json_when_piped(campaign_files):
+    import json
+    p = diagnose_cli(campaign_files, subprocess.PIPE, "--effects", "stribeck,backlash")
+    assert p.returncode == 0, p.stderr
+    assert {c["effect"] for c in json.loads(p.stdout)["candidates"]} == {"stribeck", "backlash"}
+    assert "\r" not in p.stderr and "\x1b" not in p.stderr
+
+
+def test_stage_bar_prints_plain_throttled_lines_when_not_a_terminal():
+    """Not a terminal: `diagnosis: <stage> done/total, elapsed` lines, at most one every
+    interval_s, and a last one marked done; a short diagnosis leaves the log alone."""
+    from commands.progress import StageBar
+    now = [0.0]
+    buf = io.StringIO()
+    calls = [("output law: candidates", d, 4) for d in range(5)]
+    calls += [("output law: greedy round 2", d, 3) for d in range(4)]
+    with StageBar("diagnosis", stream=buf, interval_s=3.0, clock=lambda: now[0]) as bar:
+        for c in calls:
+            now[0] += 1.0
+            bar(*c)
+    assert buf.getvalue().splitlines() == [
+        "diagnosis: output law: candidates 2/4, elapsed 00:03",
+        "diagnosis: output law: greedy round 2 0/3, elapsed 00:06",
+        "diagnosis: output law: greedy round 2 3/3, elapsed 00:09",
+        "diagnosis: output law: greedy round 2 3/3, elapsed 00:09 done"]
+    quick = io.StringIO()
+    with StageBar(stream=quick, clock=lambda: 0.0) as bar:
+        bar("output law: candidates", 0, 2)
+        bar("output law: candidates", 2, 2)
+    assert quick.getvalue() == ""
