@@ -299,8 +299,9 @@ class AcquisitionManager:
         with self._lock:
             self._closed = True
             live = [a for a in self._acqs.values() if a.state != "ended"]
-        for a in live:
-            self.stop(a, "service shutdown")
+        for a in live:      # recorded as the run's end reason
+            if a.state != "ended":
+                self._command(a, "stop the service shut down", "service shutdown")
         deadline = time.monotonic() + timeout
         for a in live:
             try:

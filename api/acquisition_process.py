@@ -15,7 +15,8 @@ command an operator types, pointed at the stand-in or, for target 'rig', at the 
 settings (RIG_CONFIG / RIG_*) — and hands `rig run` its run (core.schemes.RunSpec) as the first
 line of its stdin. It forwards the commands it reads:
 
-- `stop`: `rig run` cancels the run; the engine makes the rig safe and ends it `abort`;
+- `stop [REASON]`: `rig run` cancels the run; the engine makes the rig safe and ends it `abort`
+  with REASON (default "cancelled by the operator");
 - `estop REASON`: `rig run` e-stops the rig (daq.rig.Rig.estop: trip, make safe, latch the
   PLC's e-stop); the run ends `abort` with the e-stop as its reason. If `rig run` has not ended
   `ESTOP_GRACE_S` later (wedged), the acquisition process latches the PLC's e-stop itself
@@ -27,7 +28,8 @@ they are (`started`, `run_created`, `progress`, `run_ended`, `run_failed`). `rig
 lines (its stderr) become `log` events, with any URL password masked.
 
 Nothing loses track: end of input on stdin (the service is gone, even by SIGKILL) or
-SIGTERM/SIGINT = stop; `rig run` likewise stops on end of its stdin; the stand-in is stopped
+SIGTERM/SIGINT = stop, each with its reason in the run's record; `rig run` likewise stops on end
+of its stdin; the stand-in is stopped
 only after `rig run` has ended (so make-safe reaches its PLC).
 """
 
@@ -203,14 +205,14 @@ def supervise(spec: AcquisitionSpec, commands: "queue.Queue[str | None]") -> int
         """The next stop/estop command ('stop' for end of input or a signal), else None."""
         if signalled[0]:
             signalled[0] = False
-            return "stop"
+            return "stop the acquisition process was signalled to stop"
         try:
             c = commands.get(timeout=timeout) if timeout else commands.get_nowait()
         except queue.Empty:
             return None
-        if c is None:
-            return "stop"
-        return c if c == "stop" or c.startswith("estop") else None
+        if c is None:   # the service's end of the pipe closed: it is gone (even by SIGKILL)
+            return "stop the service is gone (end of the acquisition's input)"
+        return c if c == "stop" or c.startswith(("stop ", "estop")) else None
 
     standin, proc = None, None
     try:

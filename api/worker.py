@@ -432,6 +432,28 @@ class WorkerPool:
             self.store = None
 
 
+PARENT_POLL_S = 0.5
+"""How often a pool's worker checks that the service that started it is alive [s]."""
+
+
+def follow_parent(parent: int, poll_s: float = PARENT_POLL_S) -> threading.Thread:
+    """End this worker process when `parent` (the service whose pool started it) is gone, e.g.
+    killed by SIGKILL: an orphan would go on taking jobs from the queue that no service
+    supervises, with no wall-clock limit enforced from outside. The process ends at once
+    (os._exit): its job is left 'running' with a heartbeat that stops, and is re-queued as after
+    any worker crash (db.jobs: stale heartbeat, start-up re-queue)."""
+    def watch() -> None:
+        while True:
+            time.sleep(poll_s)
+            if os.getppid() != parent:
+                log.error("the service (pid %d) that started this worker is gone: exiting", parent)
+                logging.shutdown()
+                os._exit(3)
+    t = threading.Thread(target=watch, name="parent-watch", daemon=True)
+    t.start()
+    return t
+
+
 def main(argv: list[str] | None = None) -> int:
     from api.settings import Settings
 
@@ -452,6 +474,8 @@ def main(argv: list[str] | None = None) -> int:
         w.stopping.set()
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    if args.status_fd is not None:
+        follow_parent(os.getppid())
     w.serve(args.poll, args.max_jobs)
     w.close()
     return 0

@@ -264,8 +264,12 @@ async def run_controlled(engine, plan, read_stdin: bool = False):
     def command(line: str | None) -> None:
         if task.done():
             return
-        words = (line or "stop").strip()
-        if words == "stop":
+        # end of input: whatever controlled this run (the acquisition process) is gone
+        words = (line if line is not None else
+                 "stop the controlling process is gone (end of the run's input)").strip()
+        if words == "stop" or words.startswith("stop "):
+            if words[5:].strip():          # 'stop <reason>': recorded as the end reason
+                engine.stop_reason = words[5:].strip()
             stop()
         elif words.split(" ")[0] == "estop":
             t = loop.create_task(engine.rig.estop(words[5:].strip() or "operator"))

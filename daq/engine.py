@@ -206,6 +206,9 @@ class Engine:
         self.shared_drive_clock = shared_drive_clock
         self.commit_interval_s = commit_interval_s
         self.reset_watchdog_fault = reset_watchdog_fault
+        self.stop_reason = "cancelled by the operator"
+        """The end reason recorded when the run is cancelled (the canceller may say who or what
+        stopped it, e.g. a service that is gone)."""
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -265,7 +268,7 @@ class Engine:
             await self._prepare(plan)
             status, reason = await self._loop(plan)
         except asyncio.CancelledError:
-            status, reason = EXIT_ABORT, "cancelled by the operator"
+            status, reason = EXIT_ABORT, self.stop_reason
             raise
         except RigSafeError as exc:
             status, reason = EXIT_ABORT, self._trip_reason() or str(exc)

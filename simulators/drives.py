@@ -15,6 +15,12 @@ Each node does what the drive does on the bus:
 Emulator-only object 0x5FF0 "Emulator fault injection" (added here, not in the EDS): writing
 1 fails the motor (LiveJoint.fail_motor) and faults the drive, as a real drive fault would.
 
+A dead drive (`DriveStandIn.silence(node_id)`, reached through `rig emulate --control-stdin`):
+the node leaves the bus — no heartbeat, no TPDO, no EMCY, no answer to SDO or NMT, RPDOs
+unheard — and its motor gives no torque, as when a drive loses its power or its CBC10 board.
+It does not come back (a restart of the stand-in does that). The master finds out only by the
+silence (its heartbeat watchdog, daq/drives.py).
+
 `step()` is called by the stand-in's pacing thread once per emulator step (1 ms of rig time)
 with the emulator lock held; SDO/NMT/RPDO handlers run on canopen's receive thread and take
 the same lock.
@@ -26,7 +32,7 @@ import logging
 import math
 import struct
 import threading
-from typing import Any
+from typing import Any, Callable
 
 import canopen
 from canopen.objectdictionary import ODVariable, import_od
@@ -62,8 +68,13 @@ class DriveNode:
     """One CiA 402 drive on motor `k` (0, 1, 2) of the emulator."""
 
     def __init__(self, network: canopen.Network, node_id: int, k: int, live: Any,
-                 lock: threading.RLock) -> None:
+                 lock: threading.RLock, on_event: Callable[[str], None] | None = None) -> None:
         self.network = network
+        self.on_event = on_event
+        """Told (one line of text) when the drive quick-stops or faults: the stand-in's own
+        record of the rig being stopped, with the time it happened."""
+        self.silenced = False
+        """The drive is dead (silence()): off the bus, motor without torque."""
         self.node_id = node_id
         self.k = k
         self.live = live
@@ -195,11 +206,14 @@ class DriveNode:
                 self._set_state("SWITCH ON DISABLED")
 
     def _set_state(self, state: str) -> None:
+        changed = state != self.state
         self.state = state
         powered = state in ("OPERATION ENABLED", "QUICK STOP ACTIVE")
         if state != "QUICK STOP ACTIVE":
             self.qs_speed = None
-        self.live.enable_motor(self.k, powered and not self.motor_failed)
+        self.live.enable_motor(self.k, powered and not self.motor_failed and not self.silenced)
+        if changed and state in ("QUICK STOP ACTIVE", "FAULT") and self.on_event is not None:
+            self.on_event(f"drive {self.node_id} (motor {self.k + 1}): {state}")
         if state == "OPERATION ENABLED":
             self._apply_setpoints()
 
@@ -229,9 +243,12 @@ class DriveNode:
         self.qs_speed = float(self.live.motor(self.k)["w"])
 
     def quick_stop(self) -> None:
-        """OFF3 from the PLC (hard-wired): quick stop if enabled, no enabling until released."""
+        """OFF3 from the PLC (hard-wired): quick stop if enabled, no enabling until released.
+        A dead drive (silence()) does nothing: its motor already gives no torque."""
         with self.lock:
             self.off3 = True
+            if self.silenced:
+                return
             if self.state == "OPERATION ENABLED":
                 self._start_quick_stop()
             elif self.state in ("SWITCHED ON", "READY TO SWITCH ON"):
@@ -252,7 +269,7 @@ class DriveNode:
             self._set_state("FAULT")
             self._push_error(code)
             log.info("drive %d: fault %s (%s)", self.node_id, hex(code), why)
-            if self.node.nmt.state in ("OPERATIONAL", "PRE-OPERATIONAL"):
+            if not self.silenced and self.node.nmt.state in ("OPERATIONAL", "PRE-OPERATIONAL"):
                 self.node.emcy.send(code, 0x01)
 
     def _push_error(self, code: int) -> None:
@@ -263,6 +280,28 @@ class DriveNode:
             store[i] = v.to_bytes(4, "little")
         n = min(4, int.from_bytes(store.get(0, b"\0"), "little") + 1)
         store[0] = bytes([n])
+
+    # --- a dead drive -------------------------------------------------------------------
+
+    def silence(self) -> None:
+        """The drive dies: it leaves the bus (heartbeat, TPDOs, EMCY stop; SDO, NMT and RPDOs go
+        unanswered) and its motor gives no torque. Irreversible for this stand-in's life."""
+        with self.lock:
+            if self.silenced:
+                return
+            self.silenced = True
+            self.node.nmt.stop_heartbeat()
+            self._stop_pdos()
+            try:
+                self.network.unsubscribe(0, self._on_nmt)
+            except (KeyError, ValueError):
+                pass
+            if self.node_id in self.network.nodes:
+                del self.network[self.node_id]   # its SDO server and NMT slave leave the bus
+            self.qs_speed = None
+            self.live.enable_motor(self.k, False)
+        log.info("drive %d: silenced (dead drive: off the bus, motor %d without torque)",
+                 self.node_id, self.k + 1)
 
     # --- NMT ----------------------------------------------------------------------------
 
@@ -368,7 +407,10 @@ class DriveNode:
 
     def step(self) -> None:
         """One emulator step (1 ms of rig time); the caller holds the lock. TPDOs with an event
-        timer of n ms go out when the drive clock (rig time in ms) is a multiple of n."""
+        timer of n ms go out when the drive clock (rig time in ms) is a multiple of n. A dead
+        drive does nothing."""
+        if self.silenced:
+            return
         if self.state == "QUICK STOP ACTIVE" and self.qs_speed is not None:
             decel = self._get(D.QUICK_STOP_DECEL) * D.RPM
             w = self.qs_speed
@@ -412,11 +454,23 @@ class DriveStandIn:
     python-can bus for in-process tests)."""
 
     def __init__(self, bus: Any, live: Any, lock: threading.RLock,
-                 node_ids: tuple[int, ...] = (1, 2, 3)) -> None:
+                 node_ids: tuple[int, ...] = (1, 2, 3),
+                 on_event: Callable[[str], None] | None = None) -> None:
         self.network = canopen.Network(bus)
         self.network.NOTIFIER_CYCLE = 0.1  # receive-thread poll: close within 0.1 s
         self.network.connect()
-        self.nodes = [DriveNode(self.network, nid, k, live, lock) for k, nid in enumerate(node_ids)]
+        self.nodes = [DriveNode(self.network, nid, k, live, lock, on_event)
+                      for k, nid in enumerate(node_ids)]
+
+    def silence(self, node_id: int) -> "DriveNode":
+        """Kill drive `node_id` (DriveNode.silence): off the bus, its motor without torque.
+        Raises KeyError for a node id the stand-in does not serve."""
+        for n in self.nodes:
+            if n.node_id == node_id:
+                n.silence()
+                return n
+        raise KeyError(f"no drive at node id {node_id} "
+                       f"(node ids {', '.join(str(n.node_id) for n in self.nodes)})")
 
     def boot(self) -> None:
         for n in self.nodes:

@@ -1,5 +1,7 @@
 """Start the rig stand-in (`rig emulate`) as a separate process on loopback, learn its ports
-from what it prints, and always stop it: used by the demo and by the integration tests."""
+from what it prints, and always stop it: used by the demo and by the integration tests.
+With `control=True` its stdin is a pipe to its control commands (simulators/standin.py):
+`silence_drive(node_id)` kills one drive while the rest of the stand-in runs on."""
 
 from __future__ import annotations
 
@@ -16,11 +18,13 @@ class StandinProcess:
     """A running stand-in: `plc_port`, `can_port`, `lines` (its stdout so far)."""
 
     def __init__(self, args: list[str], startup_timeout: float = 60.0,
-                 plc_port: int = 0, can_port: int = 0) -> None:
+                 plc_port: int = 0, can_port: int = 0, control: bool = False) -> None:
         self.cmd = [sys.executable, "-m", "simulators.standin", "--plc-port", str(plc_port),
-                    "--can-port", str(can_port), *args]
+                    "--can-port", str(can_port), *(["--control-stdin"] if control else []),
+                    *args]
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE,
+                                     stdin=subprocess.PIPE if control else None,
                                      stderr=subprocess.STDOUT, text=True, env=env)
         self.lines: list[str] = []
         self.plc_port: int | None = None
@@ -53,6 +57,33 @@ class StandinProcess:
             if m:
                 self.can_port = int(m.group(1))
 
+    def control(self, command: str, timeout: float = 5.0) -> str:
+        """Send one control command (needs control=True) and return the stand-in's answer
+        (the text after `rig emulate: control: `); RuntimeError on an error answer or none
+        within `timeout` [s]."""
+        if self.proc.stdin is None:
+            raise RuntimeError("the stand-in was started without control=True")
+        n0 = len(self.lines)
+        self.proc.stdin.write(command.strip() + "\n")
+        self.proc.stdin.flush()
+        deadline = time.monotonic() + timeout
+        prefix = "rig emulate: control: "
+        while time.monotonic() < deadline:
+            for line in self.lines[n0:]:
+                if line.startswith(prefix):
+                    answer = line[len(prefix):]
+                    if answer.startswith("error"):
+                        raise RuntimeError(f"stand-in refused {command!r}: {answer}")
+                    return answer
+            if self.proc.poll() is not None:
+                break
+            time.sleep(0.005)
+        raise RuntimeError(f"no answer from the stand-in to {command!r} within {timeout} s")
+
+    def silence_drive(self, node_id: int) -> str:
+        """Kill drive node `node_id` (off the bus, its motor without torque); the answer."""
+        return self.control(f"silence-drive {int(node_id)}")
+
     def kill(self) -> None:
         """SIGKILL: the stand-in dies without any clean-up (a crashed PLC)."""
         if self.proc.poll() is None:
@@ -61,6 +92,11 @@ class StandinProcess:
 
     def stop(self, timeout: float = 10.0) -> int:
         """SIGTERM and wait (SIGKILL if it does not stop); returns the exit code."""
+        if self.proc.stdin is not None:
+            try:
+                self.proc.stdin.close()
+            except OSError:
+                pass
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGTERM)
             try:

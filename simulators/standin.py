@@ -6,9 +6,18 @@ behind a socketcand-protocol server — all on loopback by default.
     rig emulate --plc-port 0 --can-port 0         # free ports, printed on start
     rig emulate --effect stribeck --effect torque_offset:c0=500 --time-scale 2
     rig emulate --config rig.toml                 # [emulate] table (and [emulate.emulator])
+    rig emulate --control-stdin                   # then type `silence-drive 2` (fault injection)
 
 It prints where it listens and stops cleanly on Ctrl-C / SIGTERM. The DAQ side reaches it with
 daq.settings.Settings (its defaults match these ports).
+
+Control (`--control-stdin`, for fault benches and tests): one command a line on stdin, each
+answered by a line `rig emulate: control: ...` on stdout —
+    silence-drive N   drive node N dies (simulators.drives.DriveNode.silence: heartbeat, TPDOs,
+                      SDO/NMT answers stop; its motor gives no torque); the rest runs on.
+Off by default: a stand-in started in the background of a shell must not read the terminal.
+The stand-in also prints each drive's entry into QUICK STOP ACTIVE or FAULT and each PLC trip,
+so a caller sees from the plant's side when the rig was stopped.
 
 Pacing: one thread advances the emulator by its step dt (1 ms of rig time) until rig time
 catches up with wall time × time_scale, running the drives' 1 ms step (state machines, TPDOs)
@@ -43,6 +52,8 @@ class StandInOptions:
     """PLC watchdog on the service heartbeat [s]."""
     word_order: str = "big"
     """Word order of the PLC's 32-bit values ('big' = S7)."""
+    control_stdin: bool = False
+    """Read control commands (`silence-drive N`) from stdin, one a line."""
     emulator: dict[str, Any] = field(default_factory=dict)
     """EmulatorConfig fields: effects, hysteresis, seed, dropout, temp_motor_init,
     temp_joint_init, failed_motors (motor numbers 1–3), params {JointParams field: value}."""
@@ -105,7 +116,8 @@ class StandIn:
         o = self.options
         self.can_server = SocketcandServer(o.can_host, o.can_port, o.can_channel)
         self.can_port = self.can_server.start()
-        self.drives = DriveStandIn(self.can_server.local_bus(), self.live, self.lock, o.node_ids)
+        self.drives = DriveStandIn(self.can_server.local_bus(), self.live, self.lock, o.node_ids,
+                                   on_event=lambda text: print(f"rig emulate: {text}", flush=True))
         self.drives.boot()
 
     async def start_plc(self) -> None:
@@ -120,6 +132,35 @@ class StandIn:
                              on_event=lambda text: print(f"rig emulate: PLC {text}", flush=True))
         self.plc_server = PlcServer(program, o.plc_host, o.plc_port)
         self.plc_port = await self.plc_server.start()
+
+    def control(self, line: str) -> str:
+        """Carry out one control command (module doc); returns the answer (one line)."""
+        words = line.split()
+        if not words:
+            return "empty command"
+        if words[0] == "silence-drive" and len(words) == 2:
+            if self.drives is None:
+                return "error: no drives (the CAN side is off)"
+            try:
+                node = self.drives.silence(int(words[1]))
+            except (KeyError, ValueError) as exc:
+                return f"error: {exc}"
+            return (f"drive {node.node_id} (motor {node.k + 1}) silenced: off the bus, "
+                    f"motor without torque")
+        return f"error: unknown command {line.strip()!r} (known: silence-drive N)"
+
+    def start_control(self) -> None:
+        """Read control commands from stdin on a daemon thread (end of input: no more)."""
+        import sys
+        import threading
+
+        def read() -> None:
+            for line in sys.stdin:
+                if self.stop_event.is_set():
+                    return
+                if line.strip():
+                    print(f"rig emulate: control: {self.control(line)}", flush=True)
+        threading.Thread(target=read, name="standin-control", daemon=True).start()
 
     def start_pacing(self) -> None:
         import threading
@@ -195,6 +236,8 @@ class StandIn:
             self.start_pacing()
             for line in self.listening():
                 print(f"rig emulate: {line}", flush=True)
+            if self.options.control_stdin:
+                self.start_control()
             while not self.stop_event.is_set():
                 await asyncio.sleep(0.05)
         finally:
@@ -229,6 +272,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-can", action="store_true", help="run the PLC side only")
     parser.add_argument("--time-scale", type=float, help="rig seconds per wall second (default 1)")
     parser.add_argument("--watchdog", type=float, help="PLC watchdog on the service heartbeat [s] (default 0.5)")
+    parser.add_argument("--control-stdin", action="store_true",
+                        help="read control commands from stdin, one a line: "
+                             "`silence-drive N` kills drive node N (fault injection)")
     parser.add_argument("--word-order", choices=("big", "little"), help="PLC 32-bit word order (default big, as S7)")
     parser.add_argument("--effect", action="append", default=[], metavar="NAME[:k=v,...]",
                         help="inject an effect from the vocabulary (`rig params` lists them), "
@@ -267,6 +313,8 @@ def options_from_args(args: argparse.Namespace) -> StandInOptions:
         data["plc"] = False
     if args.no_can:
         data["can"] = False
+    if getattr(args, "control_stdin", False):
+        data["control_stdin"] = True
     effects = dict(emu.get("effects", {}) or {})
     from core.effects import parse_effect
     for spec in args.effect:

@@ -162,3 +162,43 @@ def test_the_time_limit_setting_stops_a_sampler_in_a_worker(sup):
     j = get(sup, f"/jobs/{jid}")
     assert j["state"] == "failed" and "wall-clock limit of 1 s" in j["error"], j
     assert j["result_ids"] == []
+
+
+def test_a_pool_worker_ends_when_the_service_that_started_it_is_gone():
+    """A worker whose service was killed (SIGKILL: no shutdown) must not live on as an orphan
+    taking jobs no service supervises (api.worker.follow_parent)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    code = ("import subprocess, sys, time\n"
+            "p = subprocess.Popen([sys.executable, '-c', 'import os, time; "
+            "import api.worker as w; w.follow_parent(os.getppid(), 0.05); time.sleep(60)'])\n"
+            "print(p.pid, flush=True)\n"
+            "time.sleep(60)\n")
+    service = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    worker = int(service.stdout.readline())
+
+    def alive(pid: int) -> bool:
+        try:
+            with open(f"/proc/{pid}/status") as f:
+                return "\nState:\tZ" not in f.read()
+        except FileNotFoundError:
+            return False
+    try:
+        time.sleep(0.5)
+        assert alive(worker)                      # it lives while its service does
+        service.send_signal(signal.SIGKILL)
+        service.wait(timeout=10)
+        end = time.monotonic() + 10.0
+        while alive(worker) and time.monotonic() < end:
+            time.sleep(0.05)
+        assert not alive(worker), "the worker outlived its service"
+    finally:
+        for pid in (worker,):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass

@@ -297,6 +297,7 @@ def test_service_shutdown_stops_its_acquisition(api):
     assert acq.proc.poll() is not None and pid_gone(acq.standin["pid"])
     info = api.store.run_info(acq.run_id)
     assert (info["status"], info["exit_status"]) == ("finished", "abort")
+    assert info["reason"] == "the service shut down", info["reason"]
 
 
 def test_estop_of_a_wedged_acquisition_latches_the_plc_estop_and_kills_it(api):
@@ -347,4 +348,6 @@ def test_service_killed_mid_run_its_acquisition_makes_safe_and_ends(api, tmp_pat
         time.sleep(0.1)
     info = api.store.run_info(a["run_id"])
     assert (info["status"], info["exit_status"]) == ("finished", "abort"), info
+    # the record says why: the service went, not an operator
+    assert info["reason"] == "the service is gone (end of the acquisition's input)", info["reason"]
     assert info["meta"]["end"]["after_make_safe"] == "pump off, valve locked, run request cleared"
