@@ -25,7 +25,9 @@
 
 (d) The Bouc–Wen fit on a two-run pair at the PLC's 20 Hz (emulated scheme 1 at 300 and 3000
     r/min, the state restarting at each run): our HMC through fit_bouc_wen next to NumPyro NUTS
-    on the same collapsed posterior (the fit's fixed sub-step counts, restarts and prior).
+    on the same collapsed posterior (the fit's fixed sub-step counts, restarts and prior),
+    the two alternated --repeats times with seed 0 (same draws each time) and their median wall
+    times compared: a single pair of runs moved the ratio from 6.3× to 2.7× with the load.
 (e) The whole `rig reproduce` (`--quick` with --quick): wall and CPU seconds.
     `--only d|e|de` runs just those; without NumPyro (the `bench` extra) (d) runs without its
     peer and (e) alone follows.
@@ -34,7 +36,8 @@ ESS is the bulk ESS (rank-normalised split R-hat machinery of estimator.converge
 for every sampler), minimum over parameters; ESS/s divides by the sampler's wall time warm-up
 included and compilation excluded (JIT/compile time is reported in its own column). NumPyro
 runs its chains in parallel on the host devices; our samplers run their chains one after the
-other on one core (single-threaded BLAS), except (b)'s HMC, whose chains run in threads. Timings are medians over --repeats runs where stated.
+other on one core (single-threaded BLAS), except the HMC of (b) and (d), whose chains run in
+threads. Timings are medians over --repeats runs where stated.
 """
 
 from __future__ import annotations
@@ -540,21 +543,36 @@ def protocol_pair(seed: int = 7) -> dict:
     return concat_signals([prepare(r, bouc_wen_signals(r)) for r in runs])
 
 
-def section_d(hmc_warmup, hmc_draws, nuts_warmup, nuts_samples, numpyro_ok):
+def section_d(hmc_warmup, hmc_draws, nuts_warmup, nuts_samples, numpyro_ok, repeats=1):
+    """Our HMC and NumPyro NUTS on the pair, alternated `repeats` times with the same seed (the
+    draws, hence ESS and R-hat, are the same each time; only the wall time varies with the
+    machine's load, so the two are timed side by side and the medians compared)."""
     sig = protocol_pair()
     n = len(sig["torque"])
     print(f"\n(d) the Bouc–Wen fit on a protocol-rate pair (scheme 1 at 300 + 3000 r/min, 20 Hz, "
           f"N={n}): our HMC vs NumPyro NUTS on the same collapsed posterior (same sub-step "
           f"counts, restarts and prior); both {CHAINS_B} chains × ({hmc_warmup} warm-up + "
-          f"{hmc_draws} draws)", flush=True)
-    fit = fit_bouc_wen(sig, "hmc", seed=0, chains=CHAINS_B, n_warmup=hmc_warmup,
-                       n_draws=hmc_draws, threads=min(CHAINS_B, os.cpu_count() or 1))
-    sec = fit.extra["hmc_wall_seconds"]
+          f"{hmc_draws} draws), seed 0, timed {repeats}× alternately (medians)", flush=True)
+    tgt, mode = fit_target(sig) if numpyro_ok else (None, None)
+    ours_s, peer_s, comp_s = [], [], []
+    fit = nl = None
+    for _ in range(repeats):
+        fit = fit_bouc_wen(sig, "hmc", seed=0, chains=CHAINS_B, n_warmup=hmc_warmup,
+                           n_draws=hmc_draws, threads=min(CHAINS_B, os.cpu_count() or 1))
+        ours_s.append(fit.extra["hmc_wall_seconds"])
+        if numpyro_ok:
+            draws_w, sec, comp = numpyro_bouc_wen(tgt, mode, nuts_warmup, nuts_samples, seed=0)
+            nl = tgt.nl_physical_draws(draws_w)
+            peer_s.append(sec)
+            comp_s.append(comp)
+    sec = median(ours_s)
     d = fit.draws[:, :, :2]
     ess = float(np.nanmin(ess_bulk(d)))
+    times = ", ".join(f"{t:.2f}" for t in ours_s)
     ours = row("d", "ours: HMC (collapsed, analytic grad)", n, ess_s=ess / sec, run_s=sec,
                ess=ess, rhat=float(np.nanmax(split_rhat(d))),
-               note=(f"all 7 parameters: max R-hat {np.nanmax(fit.diagnostics['rhat']):.4f}, "
+               note=(f"run times {times} s; all 7 parameters: max R-hat "
+                     f"{np.nanmax(fit.diagnostics['rhat']):.4f}, "
                      f"min bulk ESS {np.nanmin(fit.diagnostics['ess_bulk']):.0f}; warm-up "
                      f"iterations at the step floor "
                      f"{int(np.sum(fit.diagnostics['warmup_at_step_floor']))}; "
@@ -562,13 +580,13 @@ def section_d(hmc_warmup, hmc_draws, nuts_warmup, nuts_samples, numpyro_ok):
     if not numpyro_ok:
         print("    NumPyro not installed (`pip install -e '.[bench]'`): no peer measured")
         return ours, None
-    tgt, mode = fit_target(sig)
-    draws_w, sec, comp = numpyro_bouc_wen(tgt, mode, nuts_warmup, nuts_samples, seed=0)
-    nl = tgt.nl_physical_draws(draws_w)
+    sec = median(peer_s)
     ess = float(np.nanmin(ess_bulk(nl)))
-    peer = row("d", "NumPyro NUTS (collapsed, fwd-mode)", n, ess_s=ess / sec, compile_s=comp,
-               run_s=sec, ess=ess, rhat=float(np.nanmax(split_rhat(nl))),
-               note="warm-up+sampling, compiled")
+    times = ", ".join(f"{t:.2f}" for t in peer_s)
+    peer = row("d", "NumPyro NUTS (collapsed, fwd-mode)", n, ess_s=ess / sec,
+               compile_s=median(comp_s), run_s=sec, ess=ess,
+               rhat=float(np.nanmax(split_rhat(nl))),
+               note=f"warm-up+sampling, compiled; run times {times} s")
     return ours, peer
 
 
@@ -590,7 +608,8 @@ def section_e(quick):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (checks the script runs)")
-    ap.add_argument("--repeats", type=int, default=3, help="repeats of our HMC runs in (b) (median)")
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="repeats of our HMC runs in (b), of both samplers in (d) (median)")
     ap.add_argument("--exact-repeats", type=int, default=11,
                     help="repeats of our exact sampler in (a) (milliseconds each; median)")
     ap.add_argument("--only", choices=("d", "e", "de"), default=None,
@@ -605,7 +624,8 @@ def main(argv=None) -> int:
     if numpyro is None:
         print("NumPyro is not installed (`pip install -e '.[bench]'`): sections (a)–(c) need it; "
               "(d) runs without its peer, (e) needs none")
-        section_d(200 if q else 300, 300 if q else 500, 0, 0, numpyro_ok=False)
+        section_d(200 if q else 300, 300 if q else 500, 0, 0, numpyro_ok=False,
+                  repeats=args.repeats)
         section_e(q)
         return 0
     numpyro.set_host_device_count(CHAINS_B)
@@ -618,7 +638,7 @@ def main(argv=None) -> int:
     if args.only:
         if "d" in args.only:
             print_pair(section_d(200 if q else 300, 300 if q else 500, 200 if q else 300,
-                                 300 if q else 500, numpyro_ok=True))
+                                 300 if q else 500, numpyro_ok=True, repeats=args.repeats))
         if "e" in args.only:
             section_e(q)
         return 0
@@ -654,7 +674,7 @@ def main(argv=None) -> int:
     for r in c:
         print(f"    {r['sampler']:<40} {fmt(r['run_s']):>8}  ({r['note']})")
     print_pair(section_d(200 if q else 300, 300 if q else 500, 200 if q else 300,
-                         300 if q else 500, numpyro_ok=True))
+                         300 if q else 500, numpyro_ok=True, repeats=args.repeats))
     section_e(q)
     return 0
 

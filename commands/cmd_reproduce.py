@@ -26,7 +26,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="do not store the fits and the report in the database")
 
 
+BLAS_THREADS = "1"
+"""OpenBLAS threads for the reproduction's fits unless the environment sets OPENBLAS_NUM_THREADS:
+every product in them is small (Eq. 11's regressor ~4 000 × 5), so threads gain nothing, and on
+busy cores each threaded call waits for its helper thread (the figures are in the README's
+reproduction paragraph)."""
+
+
 def run(args: argparse.Namespace) -> int:
+    import os
+    # read by OpenBLAS when numpy and scipy load it, which is below (`rig` loads neither before)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", BLAS_THREADS)
     import json
     from pathlib import Path
 

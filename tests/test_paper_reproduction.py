@@ -67,6 +67,13 @@ def test_explanations_are_measured_and_figures_drawn(reproduced):
     text = " ".join(rep["explanations"])
     for word in ("Noise level", "SGHMC vs LS", "R-hat", "Autocorrelation", "Sobol"):
         assert word in text
+    t11 = rep["tables"]["table11"]["rows"]          # every indicator's status, counted
+    status = [r["status"] for r in t11]
+    assert f"Table 11: {status.count('pass')} of {len(t11)} indicators pass, " \
+           f"{status.count('fail')} fail" in text
+    if "not met" in status:
+        assert f"{status.count('not met')} are 'not met' rather than failed" in text
+    assert all(r["status"] in report_text(rep) for r in t11)
     r4 = next(r for r in rep["tables"]["table9"]["rows"]
               if r["quantity"] == "(4) ls held-out RMSE")["ours"]
     assert f"{r4:.0f} N·m" in text                   # the measured figure is quoted
