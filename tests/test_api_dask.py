@@ -5,6 +5,9 @@ same numbers the local path gives for the same seed, and their results name the 
 workers that ran the job and each chain / Sobol block; progress advances while the chains run on
 the cluster and a cancel stops the job there; a Dask worker killed (SIGKILL) while it runs the job
 task and a chain does not lose the job: it ends 'succeeded', run by the surviving worker.
+A cancel or the wall-clock limit stops the chain tasks already running in the Dask workers'
+threads within seconds (the job's stop Event, polled by the samplers' stop check at most every
+EVENT_CHECK_S), not only their futures on the scheduler.
 The Dask workers name the database in their own environment (RIG_DB_URL): the URL, password and
 all, is never a task argument. A tls:// scheduler is reached with the certificates of the
 settings (RIG_DASK_TLS_*), and a client without them is refused."""
@@ -383,3 +386,136 @@ def test_a_tls_scheduler_is_reached_with_the_certificates_of_the_settings(
             Client(c.address.replace("tls://", "tcp://"), timeout=3, set_as_default=False)
     finally:
         c.close()
+
+
+VERY_LONG = {"model": "eq4", "method": "mh",
+             "options": {"chains": 4, "draws": 200_000, "warmup": 200_000, "seed": 13}}
+"""An MH job whose chains take far longer (tens of seconds each here) than a stop may take."""
+
+STOPPED_WITHIN_S = 3.0
+"""How soon after a stop no chain of the job may still run in a Dask worker's thread [s]
+(the stop takes ~0.5 s: the watchdog's read, the wait loop's look, the tasks' Event check)."""
+
+
+def chains_running(cluster, jid: int) -> list[str]:
+    """The chain tasks of job `jid` that a Dask worker thread is executing now, as the workers
+    themselves see it (a task cancelled on the scheduler may still run in its thread)."""
+    def executing(dask_worker) -> list[str]:
+        with dask_worker.active_threads_lock:
+            return [str(k) for k in dask_worker.active_threads.values()]
+    return [k for ks in cluster.client.run(executing).values() for k in ks
+            if k.startswith(f"rig-job{jid}-run_chain-")]
+
+
+def wait_until_no_chain_runs(cluster, jid: int, timeout_s: float) -> tuple[float, list[str]]:
+    """(seconds waited, chains still running) once no chain of job `jid` runs, or at timeout."""
+    t0 = time.monotonic()
+    left = chains_running(cluster, jid)
+    while left and time.monotonic() - t0 < timeout_s:
+        time.sleep(0.05)
+        left = chains_running(cluster, jid)
+    return time.monotonic() - t0, left
+
+
+def test_a_cancel_stops_the_chains_running_on_the_dask_workers(svc, cluster):
+    """Cancelled while its chains run: the job ends 'cancelled' and every chain task stops in
+    its worker's thread within STOPPED_WITHIN_S (it polls the job's stop Event), instead of
+    running its chain to the end."""
+    client, h, _, runs = svc
+    jid = submit(svc, "identification", {"run_ids": [runs["fast"]], **VERY_LONG})
+    wait_for_chains(svc, cluster, jid)
+    deadline = time.monotonic() + 30
+    while not chains_running(cluster, jid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert chains_running(cluster, jid), processing(cluster)
+    r = client.post(f"/jobs/{jid}/cancel", headers=h)
+    assert r.status_code == 200 and r.json()["state"] == "cancelled"
+    waited, left = wait_until_no_chain_runs(cluster, jid, timeout_s=60)
+    assert left == [] and waited < STOPPED_WITHIN_S, (waited, left)
+    j = job(svc, jid)
+    assert j["state"] == "cancelled" and j["result_ids"] == []
+
+
+def test_a_wall_clock_limit_stops_the_chains_running_on_the_dask_workers(svc, cluster, db_url):
+    """The claiming worker's stop flag set for the wall-clock limit while the job's chains run
+    on the cluster: DaskJobs.run ends with JobTimeLimit and the chain tasks stop within
+    STOPPED_WITHIN_S; the job's stop Event is cleared on the scheduler after STOP_LINGER_S."""
+    import threading
+
+    from api import dask_backend
+    from api.dask_backend import DaskJobs
+    from api.job_kinds import JobTimeLimit
+    from api.job_runtime import JobProgress, StopFlag
+    from db import jobs as queue
+    from db.store import Store
+
+    store = Store(db_url, upgrade=False, recover=False)
+    jobs = DaskJobs(cluster.address, db_url)
+    try:
+        me = queue.worker_name()
+        for _ in range(5):          # claimed here, unless the service's pool took it first
+            queued, _ = queue.submit(store, "identification",
+                                     {"run_ids": [svc[3]["fast"]], **VERY_LONG})
+            claimed = queue.claim(store, me)
+            if claimed is not None and claimed["id"] == queued["id"]:
+                break
+            queue.cancel(store, queued["id"])
+        assert claimed is not None and claimed["id"] == queued["id"], claimed
+        jid = claimed["id"]
+        flag = StopFlag()
+        progress = JobProgress(store, jid, me, stop=flag)
+        out: list = []
+
+        def run() -> None:
+            try:
+                out.append(jobs.run(claimed, progress))
+            except BaseException as e:
+                out.append(e)
+        t = threading.Thread(target=run, daemon=True)
+        t.start()
+        deadline = time.monotonic() + 60
+        while not chains_running(cluster, jid) and time.monotonic() < deadline:
+            queue.heartbeat(store, jid, me)
+            time.sleep(0.1)
+        assert chains_running(cluster, jid), processing(cluster)
+        flag.set(JobTimeLimit("the job ran past its wall-clock limit of 1 s and was stopped"))
+        waited, left = wait_until_no_chain_runs(cluster, jid, timeout_s=60)
+        t.join(10)
+        assert len(out) == 1 and isinstance(out[0], JobTimeLimit), out
+        assert left == [] and waited < STOPPED_WITHIN_S, (waited, left)
+        stopped = [name for _, name in jobs.stopped]
+        assert len(stopped) == 1 and stopped[0].startswith(f"rig-job{jid}-stop-")
+        assert cluster.client.sync(cluster.client.scheduler.event_is_set, name=stopped[0])
+        jobs.clear_stop_events(time.monotonic() + dask_backend.STOP_LINGER_S + 1)
+        assert jobs.stopped == []
+        assert not cluster.client.sync(cluster.client.scheduler.event_is_set, name=stopped[0])
+        queue.cancel(store, jid)
+    finally:
+        jobs.close()
+        store.close()
+
+
+def test_the_event_stop_check_asks_the_scheduler_at_most_once_per_interval(monkeypatch):
+    """EventStop, called every sampler iteration, asks the scheduler once per interval (not
+    once per call), goes on while the Event is not set, and raises JobCancelled (every call)
+    once it is seen set."""
+    from api.dask_backend import EventStop
+    from api.job_kinds import JobCancelled
+
+    asked: list[bool] = []
+    answer = [False]
+
+    def is_set(self) -> bool:
+        asked.append(answer[0])
+        return answer[0]
+    monkeypatch.setattr(EventStop, "_is_set", is_set)
+    check = EventStop("rig-job1-stop-test", every_s=3600.0)
+    for _ in range(10_000):
+        check()
+    assert asked == [False]
+    answer[0] = True
+    check._next = 0.0                        # the interval is over
+    for _ in range(3):
+        with pytest.raises(JobCancelled, match="rig-job1-stop-test"):
+            check()
+    assert asked == [False, True]
