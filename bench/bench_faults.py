@@ -553,7 +553,7 @@ def fault_kill_job_worker(tmp: Path) -> Row:
     finally:
         svc.stop()
     row.stuck = counts["queued"] + counts["running"]
-    row.end_reason = (f"job {j['status']} after {j.get('attempts')} attempts"
+    row.end_reason = (f"job {j['state']} after {j.get('attempts')} attempts"
                       + (f": {j.get('error')}" if j.get("error") else "")) \
         if j["state"] in ("succeeded", "failed") else None
     workers = (health.get("workers") or {}) if isinstance(health, dict) else {}
