@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from commands.diagnosis_harness import NOT_EXPLAINED
+from core.effects import VOCABULARY
 
 TRANSMISSION_EFFECTS = ("backlash", "hysteresis")
 
@@ -176,6 +177,11 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     laws = _law_effects(rep)
     law_of_truth = "transmission" if effect in TRANSMISSION_EFFECTS else "output"
     first = laws[law_of_truth][0] if effect and laws[law_of_truth] else None
+    # an effect the vocabulary places on two laws (gear ripple: a torque on the output or an
+    # angle error in the twist) is named when it comes first on either
+    if (effect in VOCABULARY and VOCABULARY[effect].also_on and first != effect
+            and any(laws[law][:1] == [effect] for law in VOCABULARY[effect].also_on)):
+        first = effect
     # effects the report says the runs cannot tell apart from a named one (its ambiguity set,
     # said in the verdict's text too): naming one names the set
     sets = rep["verdict"].get("ambiguity_sets") or {}

@@ -62,6 +62,9 @@ class Effect:
     magnitude: str
     """Name of the parameter that sets the effect's size (0 switches it off)."""
     params: tuple[EffectParam, ...]
+    also_on: tuple[str, ...] = ()
+    """Other laws a diagnosis tries the effect on (a gear's ripple is a torque on the output,
+    from the mesh's friction, or an angle error inside the twist, the transmission error)."""
 
     def defaults(self) -> dict[str, float]:
         return {p.name: p.default for p in self.params}
@@ -121,7 +124,8 @@ VOCABULARY: dict[str, Effect] = {e.name: e for e in (
            "a spectral line at a fixed number of cycles per revolution", "output", "A",
            (EffectParam("A", 500.0, "N·m", "ripple amplitude", 0.0, 50e3),
             EffectParam("order", 36.0, "cycles/rev", "ripple cycles per output revolution", 0.0, 1e3),
-            EffectParam("phase", 0.0, "rad", "ripple phase at q = 0", -2 * math.pi, 2 * math.pi))),
+            EffectParam("phase", 0.0, "rad", "ripple phase at q = 0", -2 * math.pi, 2 * math.pi)),
+           also_on=("transmission",)),
     Effect("torque_offset", "torque sensor offset or slow drift",
            "everywhere, growing with time", "sensor", "c0",
            (EffectParam("c0", 800.0, "N·m", "offset of the torque channel at t = 0", -50e3, 50e3),

@@ -681,7 +681,8 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
                            carried: Sequence[str] = ()) -> Diagnosis | None:
     """The same diagnosis (regions, candidates, greedy held-out selection, verdict) of the
     twist-vs-torque law: nominal transmission_model(spec), candidates the vocabulary's
-    transmission effects (backlash; hysteresis when the nominal law lacks it). `carried`: effects
+    transmission effects (backlash; hysteresis when the nominal law lacks it) and those tried
+    there too (`also_on`: gear ripple as a transmission error). `carried`: effects
     of the torque channel (acts_on 'sensor') already found on the output law; the nominal law
     takes their columns (fitted on this law) and they are not candidates here (report
     `baseline.carried`). None when a run lacks the twist (torsion, or u and q) or the torque
@@ -707,7 +708,8 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
             raise ValueError(f"only effects of the torque channel carry over, not {name!r}")
         model = model.with_effect(name)
     cands = tuple(n for n in (opt.candidates or fx.EFFECT_NAMES)
-                  if n in fx.VOCABULARY and fx.VOCABULARY[n].acts_on == "transmission")
+                  if n in fx.VOCABULARY and "transmission" in (fx.VOCABULARY[n].acts_on,
+                                                               *fx.VOCABULARY[n].also_on))
     if not cands:
         return None
     topt = replace(opt, candidates=cands, series_points=0, lines_veto=False,

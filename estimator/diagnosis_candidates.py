@@ -88,7 +88,8 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
         if name in model.effects:
             continue
         acts = fx.VOCABULARY[name].acts_on if name in fx.VOCABULARY else "?"
-        if model.kind == "transmission" and acts == "output":
+        also = fx.VOCABULARY[name].also_on if name in fx.VOCABULARY else ()
+        if model.kind == "transmission" and acts == "output" and "transmission" not in also:
             skipped[name] = "acts on the output-side balance, not on the transmission law"
             continue
         disp = "torsion" if model.kind == "transmission" else "q"

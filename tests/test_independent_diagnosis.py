@@ -43,13 +43,11 @@ def test_each_family_is_named_first_on_its_law(effect, form):
     assert c["status"] in ("explained", "partly_explained")
 
 
-# Known defects found by rig C's blind score (docs/diagnosis.md, "Rig C"): Stribeck below ~10 %
-# of the top speed lies under the transient mask; rig C's gear ripple is a transmission error in
-# the twist, which the vocabulary places on the output balance. Strict: a fix makes them fail
-# until the mark is removed.
+# A known defect found by rig C's blind score (docs/diagnosis.md, "Rig C"): Stribeck below
+# ~10 % of the top speed lies under the transient mask. Strict: a fix makes it fail until the
+# mark is removed.
 RIG_C_KNOWN_DEFECTS = {
-    "stribeck": "Stribeck under the transient mask (docs/diagnosis.md, Rig C)",
-    "gear_ripple": "ripple as a transmission error, not in the vocabulary (docs/diagnosis.md)"}
+    "stribeck": "Stribeck under the transient mask (docs/diagnosis.md, Rig C)"}
 
 
 @pytest.mark.slow
