@@ -10,7 +10,7 @@ import pytest
 
 from daq.plc import PlcClient
 from daq.rig import Rig, RigSafeError
-from drivers_harness import StandinProcess, await_for
+from drivers_harness import SLACK_S, SLACK_STANDIN, StandinProcess, await_for
 from core import drive_od as D
 from core.plc_map import REGISTER_MAP
 from daq.settings import Settings
@@ -42,7 +42,12 @@ async def assert_left_safe(rig: Rig, name: str, timeout: float = 8.0) -> None:
 
 
 def run_session(args, body, **settings):
-    with StandinProcess(args) as sp:
+    """`body(rig)` in a rig session against a stand-in started with `args`. The link timeouts
+    and the PLC's watchdog get the harness's slack (drivers_harness.SLACK_S): the interlocks are
+    the point here, and a starved process on a loaded host must not trip the rig first (it did,
+    once, in a full-suite run: the watchdog's 0.5 s before the shear interlock)."""
+    settings = {"plc_link_timeout": SLACK_S, "drive_heartbeat_timeout": SLACK_S, **settings}
+    with StandinProcess([*SLACK_STANDIN, *args]) as sp:
         async def main():
             rig = Rig(Settings(plc_port=sp.plc_port, can_port=sp.can_port, **settings))
             async with rig.session():
