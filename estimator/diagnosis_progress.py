@@ -25,15 +25,15 @@ This module imports nothing to draw with."""
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-from contextvars import ContextVar
-from typing import Callable, Iterator
+from typing import Callable, ContextManager
+
+from estimator.context_slot import ContextSlot
 
 Progress = Callable[[str, int, int], None]
 """progress(stage, done, total): the diagnosis has finished `done` of the `total` units of
 `stage`."""
 
-_PROGRESS: ContextVar[Progress | None] = ContextVar("diagnosis_progress", default=None)
+_PROGRESS: ContextSlot[Progress | None] = ContextSlot("diagnosis_progress", None)
 
 
 def current() -> Progress | None:
@@ -41,15 +41,10 @@ def current() -> Progress | None:
     return _PROGRESS.get()
 
 
-@contextmanager
-def reporting(progress: Progress | None) -> Iterator[None]:
+def reporting(progress: Progress | None) -> ContextManager[None]:
     """Install `progress` for the diagnoses run inside the `with` block (in this thread/task);
     None installs nothing (the diagnosis then reports nothing)."""
-    token = _PROGRESS.set(progress)
-    try:
-        yield
-    finally:
-        _PROGRESS.reset(token)
+    return _PROGRESS.installed(progress)
 
 
 def report(stage: str, done: int, total: int) -> None:

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import threading
 from contextlib import contextmanager
-from contextvars import ContextVar
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, ContextManager, Iterator, Sequence
+
+from estimator.context_slot import ContextSlot
 
 Progress = Callable[[int, int, int, str], None]
 """progress(chain, done, total, phase): chain `chain` has finished `done` of `total` iterations
@@ -40,7 +41,7 @@ REPORTS_PER_CHAIN = 100
 
 WARMUP, SAMPLING = "warmup", "sampling"
 
-_PROGRESS: ContextVar[Progress | None] = ContextVar("estimator_progress", default=None)
+_PROGRESS: ContextSlot[Progress | None] = ContextSlot("estimator_progress", None)
 
 
 def current() -> Progress | None:
@@ -48,15 +49,10 @@ def current() -> Progress | None:
     return _PROGRESS.get()
 
 
-@contextmanager
-def reporting(progress: Progress | None) -> Iterator[None]:
+def reporting(progress: Progress | None) -> ContextManager[None]:
     """Install `progress` for the samplers run inside the `with` block (in this thread/task);
     None installs nothing (the samplers then report nothing)."""
-    token = _PROGRESS.set(progress)
-    try:
-        yield
-    finally:
-        _PROGRESS.reset(token)
+    return _PROGRESS.installed(progress)
 
 
 def stride(total: int) -> int:

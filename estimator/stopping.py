@@ -13,9 +13,9 @@ runs its chains in threads takes the check in the calling thread and hands it to
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-from contextvars import ContextVar
-from typing import Callable, Iterator
+from typing import Callable, ContextManager
+
+from estimator.context_slot import ContextSlot
 
 StopCheck = Callable[[], None]
 """Returns when the work may go on; raises to stop it."""
@@ -25,7 +25,7 @@ def _go_on() -> None:
     """The check when none is installed: never stops."""
 
 
-_CHECK: ContextVar[StopCheck] = ContextVar("estimator_stop_check", default=_go_on)
+_CHECK: ContextSlot[StopCheck] = ContextSlot("estimator_stop_check", _go_on)
 
 
 def current() -> StopCheck:
@@ -38,11 +38,6 @@ def poll() -> None:
     _CHECK.get()()
 
 
-@contextmanager
-def stop_check(check: StopCheck) -> Iterator[None]:
+def stop_check(check: StopCheck) -> ContextManager[None]:
     """Install `check` for the samplers run inside the `with` block (in this thread/task)."""
-    token = _CHECK.set(check)
-    try:
-        yield
-    finally:
-        _CHECK.reset(token)
+    return _CHECK.installed(check)
