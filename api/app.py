@@ -18,6 +18,20 @@ from fastapi.responses import JSONResponse
 from api.settings import Settings
 
 
+def _replaying(body: bytes, receive):
+    """An ASGI `receive` that gives the app `body`, already read by a middleware, as one
+    message, then hands over to the real `receive` (a disconnect)."""
+    sent = False
+
+    async def replay():
+        nonlocal sent
+        if sent:
+            return await receive()
+        sent = True
+        return {"type": "http.request", "body": body, "more_body": False}
+    return replay
+
+
 class BodyLimit:
     """ASGI middleware: 413 for a request body over `max_bytes`, judged by Content-Length, and
     for a body without one (chunked) by reading it up to the limit before the app sees it."""
@@ -44,15 +58,9 @@ class BodyLimit:
             if seen > self.max_bytes:
                 return await _too_large(send, self.max_bytes)
             more = msg.get("more_body", False)
-        body, sent = b"".join(chunks), False
+        body = b"".join(chunks)
 
-        async def replay():
-            nonlocal sent
-            if sent:
-                return await receive()
-            sent = True
-            return {"type": "http.request", "body": body, "more_body": False}
-        await self.app(scope, replay, send)
+        await self.app(scope, _replaying(body, receive), send)
 
 
 class _NonFinite:
@@ -114,18 +122,12 @@ class FiniteJson:
                 return
             chunks.append(msg.get("body", b""))
             more = msg.get("more_body", False)
-        body, sent = b"".join(chunks), False
+        body = b"".join(chunks)
         errors = non_finite_errors(body)
         if errors:
             return await JSONResponse({"detail": errors}, status_code=422)(scope, receive, send)
 
-        async def replay():
-            nonlocal sent
-            if sent:
-                return await receive()
-            sent = True
-            return {"type": "http.request", "body": body, "more_body": False}
-        await self.app(scope, replay, send)
+        await self.app(scope, _replaying(body, receive), send)
 
 
 def _finite_inputs(x: Any) -> Any:
