@@ -90,6 +90,16 @@ class RunOutcome:
     interruptions: int
 
 
+def _raise_if_cancel_requested() -> None:
+    """Raise CancelledError when a cancellation of the running task is pending. Python 3.11's
+    asyncio.wait_for (inside every pymodbus request) can swallow a cancellation that races a
+    reply; the task's cancel count stays up, so the run loop checks it each tick and an
+    operator's stop is never lost."""
+    task = asyncio.current_task()
+    if task is not None and task.cancelling():
+        raise asyncio.CancelledError
+
+
 async def _off_loop(fn: Callable[..., Any], *args: Any) -> Any:
     """Run the blocking database call `fn(*args)` in a thread, so that the event loop, which
     also writes the heartbeat the PLC's watchdog watches, never waits on the database. A
@@ -427,6 +437,7 @@ class Engine:
         self._next_progress = time.monotonic()
         while True:
             await asyncio.sleep(tick)
+            _raise_if_cancel_requested()
             self._handle_events()
             if rig.safe:
                 self._collect()

@@ -209,6 +209,7 @@ def test_failing_and_cancelled_plans_are_made_safe_and_stored(standin, tmp_path)
         task = asyncio.create_task(engine.run(Plan(scheme)))
         while engine.n_samples < samples and not task.done():
             await asyncio.sleep(0.01)
+        assert not task.done(), f"the run ended before it was cancelled: {task.result()}"
         task.cancel()
         with pytest.raises(asyncio.CancelledError):
             await task
@@ -232,6 +233,54 @@ def test_failing_and_cancelled_plans_are_made_safe_and_stored(standin, tmp_path)
                 or r["meta"]["end"]["end"]["safe"]
         kinds = [e["kind"] for e in cancelled["meta"]["events_before_start"]]
         assert "watchdog_reset" in kinds
+
+
+def test_a_cancellation_swallowed_by_a_request_still_stops_the_run(standin, tmp_path):
+    """Python 3.11's asyncio.wait_for (inside pymodbus) can swallow a cancellation that races a
+    reply. Here every dynamometer write swallows one: the operator's single cancel must still
+    end the run `abort` within a few seconds (the unsafe engine ran on to the plan's end)."""
+    url = f"sqlite:///{tmp_path / 'rig.sqlite'}"
+    store = Store(url)
+    engine = Engine(Rig(settings_for(standin)), store)
+    real_write = engine.rig.set_dyno_torque
+    in_flight, swallowed = asyncio.Event(), []
+
+    async def swallowing_write(tau: float) -> None:
+        in_flight.set()
+        try:
+            await asyncio.sleep(0.2)         # the request in flight when the cancel comes
+        except asyncio.CancelledError:
+            swallowed.append(tau)            # what wait_for's race does: the reply wins
+        finally:
+            in_flight.clear()
+        await real_write(tau)
+    engine.rig.set_dyno_torque = swallowing_write
+    plan = Plan.of(1, **{**PLANS[1], "ramp_rate": 500.0})   # ~80 s of rig time, 16 s wall
+
+    async def cancel_while_writing():
+        task = asyncio.create_task(engine.run(plan))
+        await asyncio.wait_for(in_flight.wait(), timeout=30.0)
+        assert not task.done(), f"the run ended before it was cancelled: {task.result()}"
+        task.cancel()
+        try:
+            await asyncio.wait_for(asyncio.shield(task), timeout=3 * SLACK_S)
+            stopped = False                  # ran on to the plan's end
+        except asyncio.CancelledError:
+            stopped = True
+        except TimeoutError:
+            stopped = False                  # still running: the cancel was lost
+        while not task.done():               # (the unsafe engine) end it all the same
+            task.cancel()
+            await asyncio.sleep(0.1)
+        assert swallowed and stopped
+    try:
+        asyncio.run(cancel_while_writing())
+    finally:
+        store.close()
+    with Store(url) as store:
+        (run,) = store.list_runs()
+        assert run["exit_status"] == "abort" and run["reason"] == "cancelled by the operator"
+        assert [e for e in run["meta"]["end"]["events"] if e["kind"] == "make_safe"]
 
 
 def test_a_lost_drive_is_an_interruption_and_the_run_goes_on(standin, tmp_path):

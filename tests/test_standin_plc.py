@@ -179,7 +179,7 @@ def test_service_heartbeat_lost_standin_makes_itself_safe_within_1s():
                 # diagnostic buffer says; this client's view is late when the host is loaded)
                 trip = [float(m.group(1)) for ln in sp.lines for m in
                         [re.search(r"PLC trip: service heartbeat unchanged for ([\d.]+) s", ln)] if m]
-                assert trip and 0.5 < trip[0] < 1.0, trip
+                assert trip and 0.5 <= trip[0] < 1.0, trip  # logged to the ms: 0.5004 s is "0.500"
                 assert {D.state_of(d.statusword) for d in m.drives} <= {
                     "QUICK STOP ACTIVE", "SWITCH ON DISABLED"}
                 # OFF3 holds: the master cannot re-enable while the PLC fault is latched
