@@ -69,6 +69,11 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig C 25 Hz, 0.01° encoder, 4+2 runs", "rig_c",
             {"sample_rate_hz": 25.0, "encoder_res_deg": 0.01, "torque_noise": 300.0},
             few_runs=True),
+    Variant("rig D 1 kHz, 0.001° encoder, 5 ms torque lag", "rig_d",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.001, "torque_lag_s": 0.005}),
+    Variant("rig D 10 Hz, 0.02° encoder, 4+2 runs", "rig_d",
+            {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 400.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)

@@ -319,6 +319,10 @@ class DiagnosisReport(TypedDict, total=False):
     steps: list[dict[str, Any]]
     rejected: list[dict[str, Any]]
     transient_samples_left_out: int
+    drive_train_mode: dict[str, float] | None
+    """The output balance's band capped at half the drive train's first mode (estimator.
+    diagnosis.below_drive_train_mode): stiffness [N·m/rad], inertia [kg·m²], mode_hz,
+    band_hz (before), cutoff_hz; None when the band was left as it was."""
     verdict: DiagnosisVerdict
     shrinkage: dict[str, Any]
     options: dict[str, Any]

@@ -210,9 +210,10 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
                  prep: PrepOptions | None = None) -> float | None:
     """The mean square the law's residual must keep from the sensors alone, from what the runs
     say of them (metadata `sensors`, docs/run-format.md), or None when a run says nothing: the
-    torque channel's noise variance, plus for a twist–torque law each encoder's quantisation
-    seen through the fitted stiffness, (k·step)²/12 per encoder (k the law's elastic stiffness
-    k_u or k). The quantisation error of a slowly moving encoder is not white, so the
+    noise variance of each torque channel the law's target reads (the joint torque, and the
+    load cell for the output balance T − τ_L), plus for a twist–torque law each encoder's
+    quantisation seen through the fitted stiffness, (k·step)²/12 per encoder (k the law's
+    elastic stiffness k_u or k). The quantisation error of a slowly moving encoder is not white, so the
     first-difference floor misses it; it is the floor a twist–torque law cannot go below."""
     total = []
     for run in runs:
@@ -226,7 +227,8 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
             cutoff = prep.cutoff_hz or (0.4 * fs / prep.decimate if prep.decimate > 1 else None)
             if cutoff is not None and (prep.filter_outputs or prep.decimate > 1):
                 kept = min(1.0, cutoff / (0.5 * fs))
-        ms = kept * float(sensors["torque"].get("noise_sd", 0.0)) ** 2
+        ms = kept * sum(float((sensors.get(ch) or {}).get("noise_sd", 0.0)) ** 2
+                        for ch in ("torque", "torque_load") if ch in model.target_requires)
         if model.kind == "transmission":
             k = abs(float(params.get("k_u", params.get("k", 0.0))))
             # an encoder crossing many steps within the low-pass window averages its rounding
@@ -400,6 +402,66 @@ def working_rate(runs: Sequence[RunData], prep: PrepOptions, opt: DiagnosisOptio
     return replace(prep, decimate=prep.decimate * factor) if factor > 1 else prep
 
 
+def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: LinearModel,
+                           transient_s: float) -> tuple[PrepOptions, dict | None]:
+    """For an output balance with an inertia term: `prep` low-passed (every channel) at half
+    the drive train's first mode f₁ = √(k/I)/2π when f₁/2 lies inside the analysed band, and
+    what was measured (None when nothing was changed). At f₁ the output inertia rings on the
+    transmission stiffness with a motion of the order of the output encoder's step, so the
+    balance's I·q̈ cannot be measured there: the ringing would be left in the residual as
+    structure (and pull the fitted I down) though the model lacks nothing. Done only when the
+    nominal residual shows that ringing. k is the least-squares
+    slope of the torque on the twist u − q over the runs; I the law fitted below 2 Hz (where the
+    encoder resolves the motion) on the steady samples (`transient_mask`: a low-passed
+    sgn q̇ is wrong around reversals). Runs without a twist (no motor angle) are left as they
+    are."""
+    if model.kind != "output" or "I_xx" not in model.param_names:
+        return prep, None
+    num = den = 0.0
+    fs = []
+    for r in runs:
+        cols = r.samples.columns
+        if "torque" not in cols or not ({"u", "q"} <= set(cols) or "torsion" in cols):
+            return prep, None
+        tw = -r.channel("torsion") if "torsion" in cols else r.channel("u") - r.channel("q")
+        tq = r.channel("torque")
+        ok = np.isfinite(tw) & np.isfinite(tq)
+        tw, tq = tw[ok] - tw[ok].mean(), tq[ok] - tq[ok].mean()
+        num, den = num + float(tw @ tq), den + float(tw @ tw)
+        fs.append(float(r.meta.get("sample_rate_hz") or 1.0 / np.median(np.diff(r.t))))
+    k = num / den if den > 0 else 0.0
+    band = (prep.cutoff_hz if prep.cutoff_hz else
+            0.4 * min(fs) / prep.decimate if prep.decimate > 1 else 0.5 * min(fs))
+    low = 2.0
+    if k <= 0 or not low < band:
+        return prep, None
+    lo_prep = replace(prep, cutoff_hz=low, filter_outputs=True)
+    pooled = _pool(list(runs), list(model.requires), lo_prep, 0)
+    if transient_s > 0:
+        pooled = _slice(pooled, ~transient_mask(pooled, transient_s))
+    fit = _fit(model, {}, pooled, pooled)
+    inertia = float(fit.theta[model.param_names.index("I_xx")])
+    if not inertia > 0:
+        return prep, None
+    f1 = float(np.sqrt(k / inertia) / (2.0 * np.pi))
+    if not 0.5 * f1 < band or 0.5 * f1 <= low:
+        return prep, None
+    # only when the nominal residual in the full band rings at that mode (a dominant line within
+    # 25 % of f₁, the test of `_structure`): where the encoder resolves the ringing, or the
+    # drive train does not ring, the band and its sensitivity stay whole
+    full = _pool(list(runs), list(model.requires), prep, 0)
+    if transient_s > 0:
+        full = _slice(full, ~transient_mask(full, transient_s))
+    e = _fit(model, {}, full, full).e_train
+    line = spectral_line(e, full["t"], full["run"])
+    if not (line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
+            and abs(line["freq_hz"] - f1) < 0.25 * f1):
+        return prep, None
+    return replace(prep, cutoff_hz=0.5 * f1, filter_outputs=True), {
+        "stiffness": k, "inertia": inertia, "mode_hz": f1, "line_hz": float(line["freq_hz"]),
+        "band_hz": band, "cutoff_hz": 0.5 * f1}
+
+
 def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                       base: str | LinearModel = "eq4", prep: PrepOptions | None = None,
                       options: DiagnosisOptions | None = None,
@@ -418,7 +480,9 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     for r in list(train_runs[1:]) + list(test_runs):
         avail &= set(_available(r, prep))
     need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
-    pooled = _pool(list(train_runs) + list(test_runs), need, prep, 0)
+    law_prep, mode = below_drive_train_mode(list(train_runs) + list(test_runs), prep, model,
+                                            opt.transient_s)
+    pooled = _pool(list(train_runs) + list(test_runs), need, law_prep, 0)
     n_transient = 0
     if model.kind == "output" and opt.transient_s > 0 and "qd" in pooled:
         steady = ~transient_mask(pooled, opt.transient_s)
@@ -473,7 +537,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     # round's search saw the other effects' residual too) and re-scores it against that model
     floor_white = _noise_floor(e_all[~is_train], pooled["run"][~is_train])
     floor_sensor = sensor_floor(list(test_runs), model, dict(zip(model.param_names,
-                                                                 base_fit.theta)), prep)
+                                                                 base_fit.theta)), law_prep)
     floor = max(floor_white, floor_sensor or 0.0)
     chosen, steps, cur, rejected = [], [], base_fit, []
     remaining = list(fits)
@@ -591,6 +655,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         "steps": steps,
         "rejected": rejected,
         "transient_samples_left_out": n_transient,
+        "drive_train_mode": mode,
         "verdict": {"status": status, "effects": chosen, "rmse_test_after": _rmse(cur.e_test),
                     "model": cur.model.name,
                     "shapes": {st["effect"]: st["shape"] for st in steps},

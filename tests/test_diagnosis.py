@@ -305,3 +305,19 @@ def test_nothing_injected_in_the_elastic_world_gives_none(tx_reports):
     rep = tx_reports["none-elastic"]
     assert rep["verdict"]["status"] == "none" and rep["verdict"]["effects"] == []
     assert not any(c["significant"] for c in rep["candidates"])
+
+
+def test_the_sensor_floor_of_the_output_balance_counts_the_load_cell_too():
+    """T − τ_L carries the noise of both readings: the floor is σ_T² + σ_L², not σ_T² alone
+    (which called the load cell's noise structure)."""
+    from estimator.diagnosis import sensor_floor
+    from estimator.models import eq4, eq5
+    t = np.arange(0.0, 10.0, 0.01)
+    samples = pd.DataFrame({"t": t, "q": 0.01 * t, "qd": np.full(t.size, 0.01),
+                            "u": 0.01 * t, "torque": np.zeros(t.size),
+                            "torque_load": np.zeros(t.size)})
+    run = RunData(samples=samples, meta={"sample_rate_hz": 100.0, "sensors": {
+        "torque": {"noise_sd": 150.0}, "torque_load": {"noise_sd": 200.0}}})
+    assert sensor_floor([run], eq4(), {}) == pytest.approx(150.0 ** 2 + 200.0 ** 2)
+    # the twist–torque law reads the joint torque only (no encoder steps stated here)
+    assert sensor_floor([run], eq5(), {"k": 1e7}) == pytest.approx(150.0 ** 2)
