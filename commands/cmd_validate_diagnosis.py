@@ -22,6 +22,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--independent", action="store_true",
                    help="also score on the independent validation rigs (validation_rigs/) and "
                         "print both tables side by side with the gap")
+    p.add_argument("--rig", action="append", default=None, metavar="NAME",
+                   help="with --independent: only this validation rig's variants (e.g. rig_d; "
+                        "repeatable; default every rig)")
     p.add_argument("--workers", type=int, default=2,
                    help="processes for the independent campaigns (default 2)")
     p.add_argument("--tuning", action="store_true",
@@ -37,6 +40,17 @@ def run(args: argparse.Namespace) -> int:
         res = tuning()
         print(json.dumps(res, indent=2, default=float) if args.json else format_tuning(res))
         return 0
+    variants = None
+    if args.rig:
+        from commands.independent_harness import VARIANTS
+        known = sorted({v.rig for v in VARIANTS})
+        bad = [r for r in args.rig if r not in known]
+        if bad or not args.independent:
+            import sys
+            print(f"rig validate-diagnosis: error: --rig needs --independent and one of {known}"
+                  + (f", not {bad}" if bad else ""), file=sys.stderr)
+            return 2
+        variants = tuple(v for v in VARIANTS if v.rig in args.rig)
     try:
         res = validate(quick=args.quick, seeds=args.seeds, emps=not args.no_emps,
                        first_seed=args.first_seed,
@@ -49,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     if args.independent:
         from commands.independent_harness import validate_independent
         ind = validate_independent(seeds=args.seeds or 1, first_seed=args.first_seed,
-                                   quick=args.quick, workers=args.workers,
+                                   quick=args.quick, workers=args.workers, variants=variants,
                                    progress=Counter("independent campaigns", "cell"))
     if args.json:
         print(json.dumps({**res, "independent": ind} if ind else res, indent=2, default=float))

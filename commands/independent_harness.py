@@ -74,6 +74,11 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig D 10 Hz, 0.02° encoder, 4+2 runs", "rig_d",
             {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 400.0},
             few_runs=True),
+    Variant("rig E 500 Hz, 0.002° encoder", "rig_e",
+            {"sample_rate_hz": 500.0, "encoder_res_deg": 0.002, "torque_noise": 200.0}),
+    Variant("rig E 50 Hz, 0.02° encoder, 5 ms torque lag, 4+2 runs", "rig_e",
+            {"sample_rate_hz": 50.0, "encoder_res_deg": 0.02, "torque_lag_s": 0.005},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)

@@ -207,10 +207,13 @@ def load_dependent_friction_torque(qd, T, mu, v_eps, mu_v=0.0):
     return np.abs(T) * (mu * smooth_sign(qd, v_eps) + mu_v * qd)
 
 
-def temperature_friction_torque(qd, temp, c_T, T_ref, v_eps, c_Tv=0.0):
-    """Lubricant drag [N·m]: (T_ref − temp)·(c_T·sgn(q̇) + c_Tv·q̇); more drag when colder than
-    T_ref [°C] (an exponential or polynomial viscosity law to first order)."""
-    return (T_ref - temp) * (c_T * smooth_sign(qd, v_eps) + c_Tv * qd)
+def temperature_friction_torque(qd, temp, c_T, T_ref, v_eps, c_Tv=0.0, kappa=0.0):
+    """Lubricant drag [N·m]: g·(c_T·sgn(q̇) + c_Tv·q̇), g = T_ref − temp [K]; more drag when
+    colder than T_ref [°C]. kappa [1/K] ≠ 0 curves it: g = (exp(κ·(T_ref − temp)) − 1)/κ, an
+    exponential (Arrhenius-like) viscosity law whose first order is the linear one."""
+    x = T_ref - temp
+    g = x if kappa == 0.0 else np.expm1(kappa * x) / kappa
+    return g * (c_T * smooth_sign(qd, v_eps) + c_Tv * qd)
 
 
 def backlash_twist(delta, b):

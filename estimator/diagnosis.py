@@ -61,7 +61,7 @@ Estimator code: imports rig/ and estimator/ only.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -243,6 +243,20 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
                     ms += (k * step) ** 2 / 12.0 * min(1.0, 1.0 / crossed if crossed > 0 else 1.0)
         total.append(ms)
     return float(np.mean(total)) if total else None
+
+
+def _own_part(f, n_base: int, tr: dict) -> np.ndarray:
+    """What a candidate fit's own columns add on the training runs (not orthogonalised)."""
+    return f.model.design(tr)[:, n_base:] @ f.theta[n_base:]
+
+
+def _is_constant(c: np.ndarray) -> bool:
+    """True when the contribution `c` is a constant to 90 % of its mean square. A torque
+    offset that is a constant is alike to an asymmetric Coulomb level: per direction of steady
+    sliding that level is a constant torque (its column is the offset's, estimator.models), and
+    the output law leaves out the rests where the two would differ (`transient_mask`)."""
+    ms = float(np.mean(c ** 2)) if c.size else 0.0
+    return ms > 0 and float(np.mean(c)) ** 2 >= 0.9 * ms
 
 
 def _noise_floor(e: np.ndarray, run: np.ndarray) -> float:
@@ -528,6 +542,11 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                 rho = abs(float(c1 @ c2) / np.sqrt(float(c1 @ c1) * float(c2 @ c2)))
                 if rho > 0.9:
                     row["ambiguous_with"].append(other)
+        for pair in (("torque_offset", "asymmetric_friction"),
+                     ("asymmetric_friction", "torque_offset")):
+            if name == pair[0] and pair[1] in fits and pair[1] not in row["ambiguous_with"] \
+                    and _is_constant(_own_part(fits["torque_offset"], n_base, tr)):
+                row["ambiguous_with"].append(pair[1])
         table.append(row)
         progress(f"{law}: scoring", len(table), len(fits))
     table.sort(key=lambda r: r["rmse_test"])
@@ -691,7 +710,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     # what the output law found on the torque channel (an offset, a lag) is in the reading
     # that the twist–torque law fits too: that law starts from it, so a sensor's fault is not
     # diagnosed a second time as a transmission effect (a lag draws a loop, a drift a state)
-    on_channel = tuple(e for e in chosen if fx.VOCABULARY[e].acts_on == "sensor")
+    on_channel = {e: shapes.get(e, {}) for e in chosen if fx.VOCABULARY[e].acts_on == "sensor"}
     tx = (transmission_diagnosis(train_runs, test_runs, transmission, prep, opt,
                                  carried=on_channel)
           if transmission is not None and model.kind != "transmission" else None)
@@ -743,13 +762,15 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                            spec: str | LinearModel = "auto", prep: PrepOptions | None = None,
                            options: DiagnosisOptions | None = None,
-                           carried: Sequence[str] = ()) -> Diagnosis | None:
+                           carried: Mapping[str, Mapping[str, float]] | None = None
+                           ) -> Diagnosis | None:
     """The same diagnosis (regions, candidates, greedy held-out selection, verdict) of the
     twist-vs-torque law: nominal transmission_model(spec), candidates the vocabulary's
     transmission effects (backlash; hysteresis when the nominal law lacks it) and those tried
     there too (`also_on`: gear ripple as a transmission error). `carried`: effects
-    of the torque channel (acts_on 'sensor') already found on the output law; the nominal law
-    takes their columns (fitted on this law) and they are not candidates here (report
+    of the torque channel (acts_on 'sensor') already found on the output law, with the shape
+    chosen there; the nominal law takes their columns (fitted on this law) and they are not
+    candidates here (report
     `baseline.carried`). None when a run lacks the twist (torsion, or u and q) or the torque
     channel."""
     opt = options or DiagnosisOptions()
@@ -768,10 +789,11 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     progress("twist–torque law: nominal shape", 0, 1)
     model, shape = transmission_model(spec, tr, opt)
     progress("twist–torque law: nominal shape", 1, 1)
-    for name in carried:
+    carried = dict(carried or {})
+    for name, shp in carried.items():
         if fx.VOCABULARY[name].acts_on != "sensor":
             raise ValueError(f"only effects of the torque channel carry over, not {name!r}")
-        model = model.with_effect(name)
+        model = model.with_effect(name, **shp)
     cands = tuple(n for n in (opt.candidates or fx.EFFECT_NAMES)
                   if n in fx.VOCABULARY and "transmission" in (fx.VOCABULARY[n].acts_on,
                                                                *fx.VOCABULARY[n].also_on))

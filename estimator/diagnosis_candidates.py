@@ -52,6 +52,13 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         return [{"b": r * top} for r in opt.backlash_b_rel]
     if name == "hysteresis":
         return bouc_wen_grid(sig, opt, disp)
+    if name == "torque_offset":
+        # a constant and a linear drift, or a reading that also settles after start-up
+        return [{}] + [{"settling": float(tau)} for tau in opt.offset_settling_s]
+    if name == "temperature_friction":
+        # the linear law, and curved (exponential) ones: a lubricant's viscosity is not linear
+        # in the temperature over a 15–60 °C campaign
+        return [{}] + [{"curvature": float(k)} for k in opt.temperature_curvatures]
     if name == "load_dependent_friction" and kind == "output":
         # a gear's: one law for both power-flow directions, or one coefficient per direction
         # (driving or back-driven; on a system without a gear the split column is only an

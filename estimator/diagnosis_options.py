@@ -39,6 +39,12 @@ class DiagnosisOptions:
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
     stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)
     """Stribeck curves searched: exponents of exp(−|q̇/v_s|^delta), 0 the Lorentzian."""
+    offset_settling_s: tuple[float, ...] = (10.0, 30.0, 100.0)
+    """Settling time constants [s] of the torque reading searched besides a constant and a
+    linear drift (torque_offset)."""
+    temperature_curvatures: tuple[float, ...] = (0.03, 0.06, 0.1, -0.03)
+    """Curvatures κ [1/K] of the temperature law searched besides the linear one
+    (core.effects.temperature_friction_torque: a drag ∝ exp(κ·(T_ref − temp)) − 1)."""
     backlash_b_rel: tuple[float, ...] = (0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.13)
     """Backlash dead-zone half-widths b searched, as fractions of the training runs' top |Δ|
     (99th percentile of the twist)."""

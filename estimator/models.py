@@ -235,13 +235,15 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                               measured torque, an errors-in-variables approximation); shape
                               power_flow=1: mu_drive · |T|·sgn q̇·[T·q̇ > 0] + mu_back · |T|·sgn q̇·
                               [T·q̇ ≤ 0] (driving vs back-driven efficiency)
-    temperature_friction      (T_ref − temp)·(c_T·sgn q̇ + c_Tv·q̇)                 (output)
+    temperature_friction      g·(c_T·sgn q̇ + c_Tv·q̇), g = T_ref − temp            (output;
+                              shape curvature=κ: g = (exp(κ·(T_ref − temp)) − 1)/κ)
     asymmetric_friction       d_v · asym(q̇, 0, 1): the positive direction's extra viscous slope
                               (its extra Coulomb level is a constant to Eq. 4: a torque offset)
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
                               (the unknown phase made linear); one column A if `phase` is given;
                               shape motor=1: the same on u (the motor angle over N, `order` = k·N)
-    torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor)
+    torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor;
+                              shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading)
     time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
     hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
                               gamma, n) (transmission models without an x column, e.g. eq5)
@@ -258,9 +260,15 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # load_dependent_friction's `power_flow` shape likewise: a coefficient per power-flow sign
     power_flow = (bool(shape.get("power_flow", 0.0)) if name == "load_dependent_friction"
                   else False)
+    # temperature_friction's `curvature` likewise: κ of the exponential temperature law
+    kappa = float(shape.get("curvature", 0.0)) if name == "temperature_friction" else 0.0
+    # torque_offset's `settling`: the time constant [s] of a reading that settles after start
+    settling = float(shape.get("settling", 0.0)) if name == "torque_offset" else 0.0
     shape = {k: v for k, v in shape.items()
              if not ((name == "gear_ripple" and k == "motor")
-                     or (name == "load_dependent_friction" and k == "power_flow"))}
+                     or (name == "load_dependent_friction" and k == "power_flow")
+                     or (name == "temperature_friction" and k == "curvature")
+                     or (name == "torque_offset" and k == "settling"))}
     bw_keys = {"alpha", "beta", "gamma", "n"}
     if name == "hysteresis":
         bad = set(shape) - bw_keys
@@ -313,9 +321,9 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         return Term(name, ("c_T", "c_Tv"), ("N·m/K", "N·m·s/(rad·K)"),
                     lambda s: np.column_stack([
                         fx.temperature_friction_torque(s["qd"], s["temp_joint"], 1.0, T_ref,
-                                                       v_eps, 0.0),
+                                                       v_eps, 0.0, kappa),
                         fx.temperature_friction_torque(s["qd"], s["temp_joint"], 0.0, T_ref,
-                                                       v_eps, 1.0)]),
+                                                       v_eps, 1.0, kappa)]),
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
@@ -332,6 +340,11 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     lambda s: np.column_stack([fx.gear_ripple_torque(s["q"], 1.0, order, 0.0),
                                                fx.gear_ripple_torque(s["q"], 1.0, order,
                                                                      np.pi / 2)]), ("q",))
+    if name == "torque_offset" and settling > 0:
+        return Term(name, ("c0", "drift", "settle"), ("N·m", "N·m/s", "N·m"),
+                    lambda s: np.column_stack([np.ones_like(s["t"]),
+                                               fx.torque_offset(s["t"], 0.0, 1.0),
+                                               -np.expm1(-s["t"] / settling)]), ("t",))
     if name == "torque_offset":
         return Term(name, ("c0", "drift"), ("N·m", "N·m/s"),
                     lambda s: np.column_stack([fx.torque_offset(s["t"], 1.0, 0.0)

@@ -321,3 +321,58 @@ def test_the_sensor_floor_of_the_output_balance_counts_the_load_cell_too():
     assert sensor_floor([run], eq4(), {}) == pytest.approx(150.0 ** 2 + 200.0 ** 2)
     # the twist–torque law reads the joint torque only (no encoder steps stated here)
     assert sensor_floor([run], eq5(), {"k": 1e7}) == pytest.approx(150.0 ** 2)
+
+
+def _with(run: RunData, **cols) -> RunData:
+    """`run` with channels added or replaced (functions of its samples)."""
+    df = run.samples.copy()
+    for k, f in cols.items():
+        df[k] = f(df)
+    return RunData(samples=df, meta=dict(run.meta))
+
+
+def test_an_asymmetric_coulomb_level_and_a_constant_offset_are_one_ambiguity_set():
+    """Per direction of steady sliding a Coulomb level that differs by direction is a constant
+    torque: the output law (rests left out) cannot tell it from a reading offset, and the
+    report must say so — the chosen effect's ambiguity set holds the other."""
+    def asym(t, q):
+        return 400.0 * (np.gradient(q, t) > 0)
+    train = [_synthetic(s, asym, q_amp=1.5) for s in (1, 2)]
+    test = [_synthetic(s, asym, q_amp=1.5) for s in (3, 4)]
+    rep = diagnose(train, test, "eq4", options=DiagnosisOptions(
+        candidates=("torque_offset", "asymmetric_friction")))
+    first = rep["verdict"]["effects"][0]
+    other = ({"torque_offset", "asymmetric_friction"} - {first}).pop()
+    assert other in rep["verdict"]["ambiguity_sets"][first]["effects"], rep["verdict"]
+    assert f"≡ {other}" in rep["verdict"]["summary"]
+
+
+def test_a_settling_torque_reading_is_named_with_its_time_constant():
+    """torque_offset's family: a constant, a linear drift, or a reading that settles after
+    start-up, 1 − exp(−t/τ) (τ searched on opt.offset_settling_s)."""
+    def settle(t, q):
+        return 600.0 * -np.expm1(-t / 10.0)
+    train = [_synthetic(s, settle) for s in (1, 2)]
+    test = [_synthetic(s, settle) for s in (3, 4)]
+    rep = diagnose(train, test, "eq4", options=DiagnosisOptions(candidates=("torque_offset",)))
+    assert rep["verdict"]["effects"] == ["torque_offset"]
+    assert rep["verdict"]["shapes"]["torque_offset"] == {"settling": 10.0}
+
+
+def test_a_viscosity_exponential_in_temperature_is_named_with_its_curvature():
+    """temperature_friction's family: the viscous slope ∝ exp(0.06·(40 °C − T)) over runs at
+    15–60 °C is named with a curved law (κ > 0), not only the linear one."""
+    temps = {1: 15.0, 2: 60.0, 3: 25.0, 5: 50.0, 4: 20.0, 6: 55.0}
+
+    def run(s):
+        r = _synthetic(s, lambda t, q: 0 * t)
+        qd = np.gradient(r.samples["q"].to_numpy(), r.samples["t"].to_numpy())
+        extra = 8683.0 * np.expm1(0.06 * (40.0 - temps[s])) * qd
+        return _with(r, temp_joint=lambda df: np.full(len(df), temps[s]),
+                     torque=lambda df: df["torque"] + extra)
+    train = [run(s) for s in (1, 2, 3, 5)]
+    test = [run(s) for s in (4, 6)]
+    rep = diagnose(train, test, "eq4",
+                   options=DiagnosisOptions(candidates=("temperature_friction",)))
+    assert rep["verdict"]["effects"] == ["temperature_friction"]
+    assert rep["verdict"]["shapes"]["temperature_friction"].get("curvature", 0.0) > 0.0

@@ -129,3 +129,11 @@ def test_the_drive_train_ringing_below_the_encoder_step_is_not_a_gap():
     assert mode["cutoff_hz"] == pytest.approx(0.5 * mode["mode_hz"])
     assert rep["verdict"]["structured_share_before"] < 0.10, rep["verdict"]["summary"]
     assert 5000.0 < rep["baseline"]["params"]["I_xx"]["value"] < 9000.0
+
+
+def test_validate_diagnosis_rig_selects_the_variants_and_refuses_an_unknown_rig(capsys):
+    from commands.cli import main
+    assert main(["validate-diagnosis", "--independent", "--rig", "rig_x"]) == 2
+    err = capsys.readouterr().err
+    assert "rig_x" in err and "rig_d" in err and len(err.strip().splitlines()) == 1
+    assert main(["validate-diagnosis", "--rig", "rig_d"]) == 2      # needs --independent
