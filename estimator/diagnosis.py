@@ -213,8 +213,9 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
     noise variance of each torque channel the law's target reads (the joint torque, and the
     load cell for the output balance T − τ_L), plus for a twist–torque law each encoder's
     quantisation seen through the fitted stiffness, (k·step)²/12 per encoder (k the law's
-    elastic stiffness k_u or k). The quantisation error of a slowly moving encoder is not white, so the
-    first-difference floor misses it; it is the floor a twist–torque law cannot go below."""
+    elastic stiffness k_u or k). The quantisation error of a slowly moving encoder is not
+    white, so the first-difference floor misses it; it is the floor a twist–torque law cannot
+    go below."""
     total = []
     for run in runs:
         sensors = run.meta.get("sensors")
@@ -424,11 +425,10 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     transmission stiffness with a motion of the order of the output encoder's step, so the
     balance's I·q̈ cannot be measured there: the ringing would be left in the residual as
     structure (and pull the fitted I down) though the model lacks nothing. Done only when the
-    nominal residual shows that ringing. k is the least-squares
-    slope of the torque on the twist u − q over the runs; I the law fitted below 2 Hz (where the
-    encoder resolves the motion) on the steady samples (`transient_mask`: a low-passed
-    sgn q̇ is wrong around reversals). Runs without a twist (no motor angle) are left as they
-    are."""
+    nominal residual shows that ringing. k is the least-squares slope of the torque on the
+    twist u − q over the runs; I the law fitted below 2 Hz (where the encoder resolves the
+    motion) on the steady samples (`transient_mask`: a low-passed sgn q̇ is wrong around
+    reversals). Runs without a twist (no motor angle) are left as they are."""
     if model.kind != "output" or "I_xx" not in model.param_names:
         return prep, None
     num = den = 0.0
