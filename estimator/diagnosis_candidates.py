@@ -140,11 +140,26 @@ def _fit(model: LinearModel, shape: dict, tr: dict, te: dict) -> _Fit:
 
 
 def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _Fit:
-    """The grid's shape of least training RSS; a Bouc–Wen shape on a law whose displacement is
+    """The grid's shape of least training RSS (of least leave-one-run-out RSS when the shapes
+    differ in their number of columns); a Bouc–Wen shape on a law whose displacement is
     the position (no twist channel: any hysteretic system, whose shape is not the J4
     transmission's) is then refined by profile least squares over (β, γ/β)."""
-    ranked = sorted(((ols(m.design(tr), m.target(tr)).rss, i) for i, (_, m) in
-                     enumerate(models)))
+    def loro(m: LinearModel) -> float:
+        # each training run predicted by the fit on the others (leave-one-run-out): a shape
+        # with more columns (torque_offset's settling term) must earn them across runs
+        X, y, run = m.design(tr), m.target(tr), tr["run"]
+        total = 0.0
+        for r in np.unique(run):
+            out = run == r
+            e = y[out] - X[out] @ ols(X[~out], y[~out]).theta
+            total += float(e @ e)
+        return total
+    cols = {len(m.param_names) for _, m in models}
+    if len(cols) > 1 and np.unique(tr["run"]).size > 1:
+        ranked = sorted((loro(m), i) for i, (_, m) in enumerate(models))
+    else:
+        ranked = sorted(((ols(m.design(tr), m.target(tr)).rss, i) for i, (_, m) in
+                         enumerate(models)))
     shape, m = models[ranked[0][1]]
     if "beta" in shape and m.kind != "transmission":
         # the profile RSS over Bouc–Wen shapes has several basins: refine the three best
