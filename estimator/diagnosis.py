@@ -246,6 +246,10 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
     return float(np.mean(total)) if total else None
 
 
+_OFFSET_ALIKE = ("torque_offset", "asymmetric_friction")
+"""One ambiguity set when the offset's fitted part is a constant (`_is_constant`)."""
+
+
 def _own_part(f, n_base: int, tr: dict) -> np.ndarray:
     """What a candidate fit's own columns add on the training runs (not orthogonalised)."""
     return f.model.design(tr)[:, n_base:] @ f.theta[n_base:]
@@ -529,6 +533,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         progress(f"{law}: candidates", len(fits), len(cands))
     table = []
     contrib = {name: _contribution(base_fit, f, tr) for name, f in fits.items()}
+    offset_alike = (set(_OFFSET_ALIKE) <= set(fits)
+                    and _is_constant(_own_part(fits["torque_offset"], n_base, tr)))
     progress(f"{law}: scoring", 0, len(fits))
     for name, f in fits.items():
         row = {"effect": name, "model": model.name, "shape": f.shape,
@@ -542,11 +548,10 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                 rho = abs(float(c1 @ c2) / np.sqrt(float(c1 @ c1) * float(c2 @ c2)))
                 if rho > 0.9:
                     row["ambiguous_with"].append(other)
-        for pair in (("torque_offset", "asymmetric_friction"),
-                     ("asymmetric_friction", "torque_offset")):
-            if name == pair[0] and pair[1] in fits and pair[1] not in row["ambiguous_with"] \
-                    and _is_constant(_own_part(fits["torque_offset"], n_base, tr)):
-                row["ambiguous_with"].append(pair[1])
+        if offset_alike and name in _OFFSET_ALIKE:
+            other = _OFFSET_ALIKE[1 - _OFFSET_ALIKE.index(name)]
+            if other not in row["ambiguous_with"]:
+                row["ambiguous_with"].append(other)
         table.append(row)
         progress(f"{law}: scoring", len(table), len(fits))
     table.sort(key=lambda r: r["rmse_test"])
