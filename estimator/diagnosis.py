@@ -77,7 +77,7 @@ from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinka
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
 from estimator.emps import emps_model
-from estimator.models import LinearModel, eq11, model_from_spec
+from estimator.models import LinearModel, eq11, model_from_spec, with_stiffening
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
 from core import effects as fx
@@ -737,7 +737,9 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
     'auto' or 'bouc_wen' — issue 7's nominal, the Bouc–Wen law as Eq. 11 with its state x for
     the shape (α = 1, n = 1, β, γ) of bouc_wen_grid with the smallest training RSS (profile least
     squares); 'eq5' — the elastic law (then hysteresis is a candidate); or any transmission
-    model / spec of estimator.models."""
+    model / spec of estimator.models; each with a stiffness that changes with the twist
+    (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
+    law, identified like k, not a gap)."""
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
         from scipy.optimize import minimize
 
@@ -757,11 +759,11 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
         res = minimize(rss, v0, method="Nelder-Mead",
                        options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
         sh = shape(res.x if res.fun <= rss(v0) else v0)
-        return eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), sh
+        return with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"])), sh
     m = base_model(spec)
     if m.kind != "transmission":
         raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
-    return m, {}
+    return with_stiffening(m), {}
 
 
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],

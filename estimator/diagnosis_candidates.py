@@ -11,8 +11,8 @@ import numpy as np
 
 from core import effects as fx
 from estimator.diagnosis_options import DiagnosisOptions
-from estimator.diagnosis_stats import angle_lines, mean_se
-from estimator.least_squares import OLSResult, ols
+from estimator.diagnosis_stats import angle_lines, angle_periodogram, mean_se
+from estimator.least_squares import OLSResult, leave_one_group_out, ols
 from estimator.models import LinearModel
 
 
@@ -31,10 +31,10 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # not a ripple; then screen by the nominal residual's angular lines, fit the strongest
         travel = float(np.ptp(sig["q"]))
         orders = np.asarray([k for k in opt.ripple_orders if k * travel >= 4.0 * np.pi])
-        shapes = []
+        groups = []
         if orders.size:
             top = angle_lines(e_train, sig["q"], orders).get("top_orders")
-            shapes = [{"order": float(k)} for k in (top or orders)]
+            groups.append([{"order": float(k)} for k in (top or orders)])
         # a ripple of the motor side (its bearings, the first gear stage): periodic in the
         # motor angle N·u, opt.motor_ripple_orders cycles per motor revolution, when the runs
         # carry u and say their reduction N (the order on u is then k·N)
@@ -42,9 +42,20 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         if "u" in sig and n_red > 0 and np.ptp(sig["u"]) * n_red >= 4.0 * np.pi:
             m_orders = np.asarray(opt.motor_ripple_orders, dtype=float) * n_red
             top = angle_lines(e_train, sig["u"], m_orders).get("top_orders") or []
-            shapes += [{"order": float(k), "motor": 1.0} for k in top[:2]]
-        if not shapes:
+            groups.append([{"order": float(k), "motor": 1.0} for k in top[:2]])
+        # an intermediate stage's transmission error: periodic in u at an order between the
+        # output's and the motor's (its shaft turns a whole number of times per turn of u only
+        # by chance, so not a motor order either)
+        if "u" in sig:
+            groups.append([{"order": k, "motor": 1.0} for k in _stage_orders(sig, e_train, opt)])
+        groups = [g for g in groups if g]
+        if not groups:
             raise ValueError("the runs' travel covers no ripple period of the orders searched")
+        # a mesh's ripple is rarely one sine: each group's strongest order is also tried with
+        # its harmonics (chosen over the single sine by leave-one-run-out, _best_shape)
+        shapes = [sh for g in groups for sh in g]
+        if opt.ripple_harmonics > 1:
+            shapes += [{**g[0], "harmonics": float(opt.ripple_harmonics)} for g in groups]
         return shapes
     if name == "backlash":
         # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)
@@ -65,6 +76,33 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # energy loss per cycle, which hysteresis also is)
         return [{}, {"power_flow": 1.0}]
     return [{}]
+
+
+def _stage_orders(sig: dict, e_train: np.ndarray, opt: DiagnosisOptions) -> list[float]:
+    """The two strongest orders of the training residual on u [cycles per output revolution]
+    above opt.ripple_orders, up to opt.stage_ripple_max_order and 0.8 × the Nyquist order of
+    the sampling at the runs' median speed |q̇| (faster samples alias those orders: they add
+    noise to the screen and the fit, not a line). Long campaigns are screened
+    on every s-th sample (about 2·10⁵ kept, s no larger than that Nyquist order allows), by
+    the periodogram (diagnosis_stats.angle_periodogram)."""
+    lo = max(opt.ripple_orders) + 1 if opt.ripple_orders else 2
+    t, run = sig["t"], sig.get("run")
+    dt = np.diff(t)
+    if run is not None:
+        dt = dt[np.diff(run) == 0]
+    dt = dt[dt > 0]
+    ud = sig["qd"] if "qd" in sig else np.gradient(sig["u"], t)    # u̇ ≈ q̇ at this scale
+    w = float(np.median(np.abs(ud))) if ud.size else 0.0
+    if not dt.size or w <= 0:
+        return []
+    fs = 1.0 / float(np.median(dt))
+    k_nyq = np.pi * fs / w            # k·w/2π = fs/2
+    hi = int(min(opt.stage_ripple_max_order, 0.8 * k_nyq))
+    if hi < lo:
+        return []
+    stride = min(max(1, int(0.8 * k_nyq / hi)), max(1, int(np.ceil(e_train.size / 200_000))))
+    e = e_train[::stride] - np.mean(e_train[::stride])
+    return [float(k) for k in angle_periodogram(e, sig["u"][::stride], lo, hi)]
 
 
 def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> list[dict]:
@@ -147,13 +185,8 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
     def loro(m: LinearModel) -> float:
         # each training run predicted by the fit on the others (leave-one-run-out): a shape
         # with more columns (torque_offset's settling term) must earn them across runs
-        X, y, run = m.design(tr), m.target(tr), tr["run"]
-        total = 0.0
-        for r in np.unique(run):
-            out = run == r
-            e = y[out] - X[out] @ ols(X[~out], y[~out]).theta
-            total += float(e @ e)
-        return total
+        e = leave_one_group_out(m.design(tr), m.target(tr), tr["run"])
+        return float(e @ e)
     cols = {len(m.param_names) for _, m in models}
     if len(cols) > 1 and np.unique(tr["run"]).size > 1:
         ranked = sorted((loro(m), i) for i, (_, m) in enumerate(models))
@@ -207,12 +240,7 @@ def _loro_errors(model: LinearModel, tr: dict) -> np.ndarray:
     if runs.size < 2:
         res = ols(X, y)
         return (y - X @ res.theta) * np.sqrt(X.shape[0] / max(res.dof, 1))
-    e = np.empty_like(y)
-    for r in runs:
-        m = run == r
-        res = ols(X[~m], y[~m])
-        e[m] = y[m] - X[m] @ res.theta
-    return e
+    return leave_one_group_out(X, y, run)
 
 
 def predicted_shrinkage(cur: LinearModel, new: LinearModel, tr: dict) -> float:

@@ -35,6 +35,13 @@ class DiagnosisOptions:
     motor_ripple_orders: tuple[int, ...] = (1, 2, 3, 4, 6)
     """Gear-ripple orders searched on the motor angle [cycles per motor revolution] (the motor's
     and first stage's periodic torques), when the runs carry u and their reduction."""
+    ripple_harmonics: int = 3
+    """Harmonics of a gear ripple searched besides the single sine: the strongest order on
+    each angle is also tried with its 2nd … ripple_harmonics-th harmonic (1: none)."""
+    stage_ripple_max_order: int = 2000
+    """Highest order [cycles per output revolution] searched on u for an intermediate gear
+    stage's transmission error (orders above `ripple_orders` up to this, and below the
+    sampled Nyquist order of the training runs' top speed), when the runs carry u."""
     stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
     stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)

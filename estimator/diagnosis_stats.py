@@ -147,6 +147,32 @@ def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
     return best
 
 
+def angle_periodogram(residual: np.ndarray, angle: np.ndarray, lo: int, hi: int,
+                      top: int = 2) -> list[int]:
+    """The `top` integer orders k in lo..hi [cycles per revolution of `angle`] at the largest
+    peaks of |Σ e·exp(−i·k·angle)|², strongest first: a screen of many orders (thousands) at the cost
+    of two complex vector operations per order (exp(i·k·angle) by recurrence), where
+    angle_lines' two-column least squares per order would cost a hundred times more."""
+    e = np.asarray(residual, dtype=float)
+    a = np.asarray(angle, dtype=float)
+    if hi < lo or e.size < 20:
+        return []
+    step = np.exp(-1j * a)
+    w = np.exp(-1j * lo * a)
+    power = np.empty(hi - lo + 1)
+    for i in range(power.size):
+        if i and i % 256 == 0:          # restart the recurrence: no drift over thousands
+            w = np.exp(-1j * (lo + i) * a)
+        power[i] = abs(complex(e @ w)) ** 2
+        w *= step
+    # distinct lines: local maxima only (a line leaks into its neighbouring orders when the
+    # travel is short)
+    left = np.r_[-np.inf, power[:-1]]
+    right = np.r_[power[1:], -np.inf]
+    peaks = np.flatnonzero((power >= left) & (power >= right))
+    return [int(lo + i) for i in peaks[np.argsort(-power[peaks])][:top]]
+
+
 def angle_lines(residual: np.ndarray, q: np.ndarray, orders: np.ndarray) -> dict:
     """Amplitude of the residual's projection on sin/cos(k·q) for each order k [cycles/rev]
     (least squares on the two columns), the peak order, its amplitude [residual unit] and its

@@ -66,3 +66,31 @@ def _cov_rank_deficient(Vt, s, keep):
     cov[touched, :] = np.inf
     cov[:, touched] = np.inf
     return cov
+
+
+def leave_one_group_out(X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Each group's errors y − X·θ with θ fitted on the other groups (leave-one-run-out
+    prediction errors). Every group's block is reduced once to its QR factor R_g and Q_gᵀy_g,
+    so each left-out fit is a small least-squares problem on the other groups' stacked factors:
+    the same minimum-norm solution as `ols` on the other groups' samples, without refitting
+    them (no normal equations: the conditioning is X's, not its square)."""
+    X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
+    groups = np.asarray(groups)
+    n, p = X.shape
+    c = np.sqrt(np.sum(X * X, axis=0))
+    c = np.where(c > 0, c, 1.0)
+    Xn = X / c
+    labels = np.unique(groups)
+    blocks = []
+    for g in labels:
+        m = groups == g
+        Q, R = np.linalg.qr(Xn[m], mode="reduced")
+        blocks.append((m, R, Q.T @ y[m]))
+    e = np.empty_like(y)
+    for i, (m, _, _) in enumerate(blocks):
+        A = np.vstack([R for j, (_, R, _) in enumerate(blocks) if j != i])
+        b = np.concatenate([z for j, (_, _, z) in enumerate(blocks) if j != i])
+        coef = np.linalg.lstsq(A, b, rcond=max(n, p) * np.finfo(float).eps)[0]
+        e[m] = y[m] - Xn[m] @ coef
+    return e

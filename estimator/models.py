@@ -135,6 +135,20 @@ def eq5(offset: bool = True) -> LinearModel:
                                      "C": "constant torque"})
 
 
+def with_stiffening(m: LinearModel) -> LinearModel:
+    """The twist–torque law `m` plus a stiffness that changes with the twist, k3·Δ³
+    (N·m/rad³): a harmonic drive's or a gear train's compliance curve stiffens as the teeth
+    take load (Taghirad & Bélanger), so its elastic law is not k·Δ alone. Named
+    '<m>+stiffening'; m unchanged when it has k3 already."""
+    if "k3" in m.param_names:
+        return m
+    term = Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
+                ("torsion",))
+    return replace(m, name=f"{m.name}+stiffening", terms=m.terms + (term,),
+                   descriptions={**m.descriptions,
+                                 "k3": "cubic stiffness: the stiffness rises by 3·k3·Δ²"})
+
+
 def bouc_wen_x(sig: Mapping[str, np.ndarray], alpha: float, beta: float, gamma: float,
                n: int = 1, displacement: str = "torsion") -> np.ndarray:
     """Bouc–Wen state x along the displacement of the signals (the twist Δ [rad] by default;
@@ -241,7 +255,8 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                               (its extra Coulomb level is a constant to Eq. 4: a torque offset)
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
                               (the unknown phase made linear); one column A if `phase` is given;
-                              shape motor=1: the same on u (the motor angle over N, `order` = k·N)
+                              shape motor=1: the same on u (the motor angle over N, `order` = k·N);
+                              shape harmonics=h: also at 2·order … h·order (two columns each)
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor;
                               shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading)
     time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
@@ -257,6 +272,8 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # gear_ripple's `motor` shape (a diagnosis family member, not an emulator parameter): the
     # ripple is periodic in the motor angle u·N, `order` then counts cycles per turn of u
     motor = bool(shape.get("motor", 0.0)) if name == "gear_ripple" else False
+    # and its `harmonics`: a mesh's ripple with its 2nd … harmonics-th harmonic
+    harmonics = int(shape.get("harmonics", 1)) if name == "gear_ripple" else 1
     # load_dependent_friction's `power_flow` shape likewise: a coefficient per power-flow sign
     power_flow = (bool(shape.get("power_flow", 0.0)) if name == "load_dependent_friction"
                   else False)
@@ -265,7 +282,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # torque_offset's `settling`: the time constant [s] of a reading that settles after start
     settling = float(shape.get("settling", 0.0)) if name == "torque_offset" else 0.0
     shape = {k: v for k, v in shape.items()
-             if not ((name == "gear_ripple" and k == "motor")
+             if not ((name == "gear_ripple" and k in ("motor", "harmonics"))
                      or (name == "load_dependent_friction" and k == "power_flow")
                      or (name == "temperature_friction" and k == "curvature")
                      or (name == "torque_offset" and k == "settling"))}
@@ -327,11 +344,17 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
-        if motor:   # periodic in the motor angle: `order` cycles per output revolution of u
-            return Term(name, ("A_sin", "A_cos"), ("N·m", "N·m"),
-                        lambda s: np.column_stack([fx.gear_ripple_torque(s["u"], 1.0, order, 0.0),
-                                                   fx.gear_ripple_torque(s["u"], 1.0, order,
-                                                                         np.pi / 2)]), ("u",))
+        if motor or harmonics > 1:
+            # on u (the motor angle over N: `order` cycles per output revolution of u) or q,
+            # with its harmonics 2·order … harmonics·order, each with an unknown phase
+            ang = "u" if motor else "q"
+            names = tuple(f"A_{sc}{j if j > 1 else ''}" for j in range(1, harmonics + 1)
+                          for sc in ("sin", "cos"))
+            return Term(name, names, ("N·m",) * len(names),
+                        lambda s: np.column_stack([
+                            fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+                            for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
+                        (ang,))
         if "phase" in shape:
             ph = shape_params["phase"]
             return Term(name, ("A",), ("N·m",),

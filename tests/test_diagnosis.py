@@ -12,8 +12,9 @@ import pandas as pd
 import pytest
 
 from estimator.diagnosis import DiagnosisOptions, diagnose
-from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage, mean_se,
-                                       whiteness)
+from estimator.diagnosis_stats import (angle_lines, angle_periodogram, block_ids,
+                                       bootstrap_shrinkage, mean_se, whiteness)
+from estimator.least_squares import leave_one_group_out, ols
 from core.run import RunData
 from core.terms import eq4_regressor
 
@@ -53,6 +54,30 @@ def test_whiteness_and_angle_line_detect_structure_only_when_present():
     line = angle_lines(e + 0.5 * np.sin(36 * q + 0.3), q, np.arange(2, 121))
     assert line["order"] == 36 and line["p_value"] < 1e-6
     assert abs(line["amplitude"] - 0.5) < 0.1
+
+
+def test_the_periodogram_screen_finds_a_high_order_line_and_its_strength_order():
+    rng = np.random.default_rng(2)
+    u = np.linspace(0.0, 2.0, 40000)
+    e = rng.normal(size=u.size)
+    line = e + 0.4 * np.sin(733 * u + 1.0) + 0.2 * np.sin(1466 * u + 0.5)
+    assert angle_periodogram(line, u, 121, 2000) == [733, 1466]
+    assert angle_periodogram(line, u, 121, 700) != [733]          # outside the range: not found
+    assert angle_periodogram(line, u, 10, 5) == []
+
+
+def test_leave_one_group_out_errors_equal_refits_on_the_other_groups():
+    rng = np.random.default_rng(3)
+    n = 4000
+    X = np.column_stack([np.ones(n), 1e4 * rng.normal(size=n), 1e-3 * rng.normal(size=n)])
+    X = np.column_stack([X, 2e-7 * X[:, 1]])           # rank deficient: the minimum-norm fit
+    y = X[:, :3] @ np.array([1.0, 2e-4, 3e3]) + rng.normal(size=n)
+    g = np.repeat(np.arange(5), n // 5)
+    want = np.empty(n)
+    for r in range(5):
+        m = g == r
+        want[m] = y[m] - X[m] @ ols(X[~m], y[~m]).theta
+    np.testing.assert_allclose(leave_one_group_out(X, y, g), want, atol=1e-9)
 
 
 def test_bootstrap_interval_covers_the_point_and_excludes_zero_for_a_real_gain():
@@ -205,7 +230,7 @@ def test_cli_json_has_the_issue_keys(campaigns, tmp_path, capsys):
     for law in ("eq4", rep["transmission"]["baseline"]["model"]):
         rm = [c["rmse_test"] for c in rep["candidates"] if c["model"] == law]
         assert rm == sorted(rm)
-    assert {c["model"] for c in rep["candidates"]} == {"eq4", "eq11"}
+    assert {c["model"] for c in rep["candidates"]} == {"eq4", "eq11+stiffening"}
     assert rep["transmission"]["verdict"]["status"] == "none"
     assert rep["verdict"]["status"] in ("explained", "none", "partly_explained", "unexplained")
     assert rep["verdict"]["effects"] == ["gear_ripple"]
@@ -213,7 +238,8 @@ def test_cli_json_has_the_issue_keys(campaigns, tmp_path, capsys):
     assert main(["diagnose", "--train", *paths["train"], "--test", *paths["test"]]) == 0
     text = capsys.readouterr().out
     assert "verdict: explained — gear_ripple" in text
-    assert "twist–torque law eq11" in text and "on eq11" in text and "on eq4" in text
+    assert "twist–torque law eq11+stiffening" in text and "on eq11+stiffening" in text
+    assert "on eq4" in text
     # --transmission none: the torque balance alone
     assert main(["diagnose", "--train", *paths["train"], "--test", *paths["test"], "--json",
                  "--transmission", "none"]) == 0
@@ -268,7 +294,8 @@ def test_each_withheld_transmission_effect_alone_is_named(tx_reports, effect):
     assert v["status"] == "explained", (v, tx["verdict"])
     assert v["effects"] == [effect]
     assert v["effect_models"][effect] == tx["baseline"]["model"]
-    assert tx["baseline"]["model"] == ("eq5" if effect == "hysteresis" else "eq11")
+    assert tx["baseline"]["model"] == ("eq5+stiffening" if effect == "hysteresis"
+                                       else "eq11+stiffening")
     row = next(c for c in rep["candidates"] if c["effect"] == effect)
     assert row["significant"] and row["model"] == tx["baseline"]["model"]
     assert tx["candidates"][0]["effect"] == effect

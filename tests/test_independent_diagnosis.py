@@ -131,6 +131,32 @@ def test_the_drive_train_ringing_below_the_encoder_step_is_not_a_gap():
     assert 5000.0 < rep["baseline"]["params"]["I_xx"]["value"] < 9000.0
 
 
+RIG_E_FEW = Variant("rig E 50 Hz, 0.02°, 5 ms lag, 4+2 runs", "rig_e",
+                    {"sample_rate_hz": 50.0, "encoder_res_deg": 0.02, "torque_lag_s": 0.005},
+                    few_runs=True)
+
+
+@pytest.mark.slow
+def test_a_stiffening_transmission_is_part_of_the_nominal_law():
+    """Rig E's transmission stiffens with the twist (k₀·(1 + κ(Δ/Δ_r)²)); a law linear in the
+    twist named that `backlash` in every campaign of its blind score. The nominal twist–torque
+    law carries a cubic stiffness (estimator.models.with_stiffening): nothing withheld → none
+    (seed 801, the blind score's: `explained — backlash` without it)."""
+    c = run_cell(RIG_E_FEW, 801, None, None, 0.0, "none")
+    assert c["status"] == "none" and c["effects"] == [], c
+
+
+@pytest.mark.slow
+def test_an_intermediate_stages_transmission_error_is_a_gear_ripple():
+    """Rig E's intermediate-stage transmission error (220 and 440 cycles per turn of u: neither
+    an output-angle order of the search nor a whole number of motor turns) was named
+    `hysteresis` in its blind score; the stage orders on u and the harmonics name it."""
+    from validation_rigs import rig_e
+    assert "intermediate_error" in rig_e.EFFECT_FORMS["gear_ripple"]
+    c = run_cell(RIG_E_FEW, 22, "gear_ripple", "intermediate_error", 2.0, "single")
+    assert c["named_first"] == "gear_ripple", c
+
+
 def test_validate_diagnosis_rig_selects_the_variants_and_refuses_an_unknown_rig(capsys):
     from commands.cli import main
     assert main(["validate-diagnosis", "--independent", "--rig", "rig_x"]) == 2
