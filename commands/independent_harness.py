@@ -79,6 +79,11 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig E 50 Hz, 0.02° encoder, 5 ms torque lag, 4+2 runs", "rig_e",
             {"sample_rate_hz": 50.0, "encoder_res_deg": 0.02, "torque_lag_s": 0.005},
             few_runs=True),
+    Variant("rig F 250 Hz, 0.005° encoder", "rig_f",
+            {"sample_rate_hz": 250.0, "encoder_res_deg": 0.005, "torque_noise": 250.0}),
+    Variant("rig F 20 Hz, 0.001° encoder, 10 ms torque lag, 4+2 runs", "rig_f",
+            {"sample_rate_hz": 20.0, "encoder_res_deg": 0.001, "torque_noise": 100.0,
+             "torque_lag_s": 0.01}, few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
