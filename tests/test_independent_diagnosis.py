@@ -1,8 +1,9 @@
 """The gap diagnosis on campaigns of the independently written validation rigs, which it was never
 tuned on (commands.independent_harness): nothing withheld gives `none`, one form of each effect
 family at ENR 2 is named first on the law it acts on, an effect outside the vocabulary is not
-explained — on the two-inertia and planned-motion rigs, rig B and rig C. Fixed seeds (21, 22),
-chosen before these campaigns were ever diagnosed."""
+explained — on the two-inertia and planned-motion rigs, rigs B, C and F (rig F's after its blind
+score); rig E's stiffening transmission and intermediate-stage ripple. Fixed seeds (21, 22),
+chosen before these campaigns were ever diagnosed (rig E's nominal: its blind seed, 801)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,10 @@ RIG_C_FEW = Variant("rig C 25 Hz, 4+2 runs", "rig_c",
                     {"sample_rate_hz": 25.0, "encoder_res_deg": 0.01, "torque_noise": 300.0},
                     few_runs=True)
 
+RIG_F_FEW = Variant("rig F 20 Hz, 0.001°, 10 ms lag, 4+2 runs", "rig_f",
+                    {"sample_rate_hz": 20.0, "encoder_res_deg": 0.001, "torque_noise": 100.0,
+                     "torque_lag_s": 0.01}, few_runs=True)
+
 RIG_C_200 = Variant("rig C 200 Hz, 10 ms lag", "rig_c",
                     {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_lag_s": 0.01})
 
@@ -31,7 +36,7 @@ FAMILIES = [("stribeck", "lorentz"), ("temperature_friction", "mult_both"),
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("variant", [TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW],
+@pytest.mark.parametrize("variant", [TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW],
                          ids=lambda v: v.rig)
 def test_nothing_withheld_is_none(variant):
     c = run_cell(variant, 21, None, None, 0.0, "none")
@@ -72,8 +77,9 @@ def test_each_family_of_rig_c_is_named_first_on_its_law(effect):
 @pytest.mark.parametrize("variant,effect", [(TWO_INERTIA, "periodic_disturbance"),
                                             (PLANNED_FEW, "position_stiffness"),
                                             (RIG_B, "second_resonance"),
-                                            (RIG_C_FEW, "periodic_disturbance")],
-                         ids=["two_inertia", "planned_motion", "rig_b", "rig_c"])
+                                            (RIG_C_FEW, "periodic_disturbance"),
+                                            (RIG_F_FEW, "periodic_disturbance")],
+                         ids=["two_inertia", "planned_motion", "rig_b", "rig_c", "rig_f"])
 def test_an_effect_outside_the_vocabulary_is_not_explained(variant, effect):
     from commands.independent_harness import rig_module
     mod = rig_module(variant.rig)
