@@ -41,7 +41,7 @@ class DiagnosisOptions:
     stage_ripple_max_order: int = 2000
     """Highest order [cycles per output revolution] searched on u for an intermediate gear
     stage's transmission error (orders above `ripple_orders` up to this, and below the
-    sampled Nyquist order of the training runs' top speed), when the runs carry u."""
+    sampled Nyquist order at the runs' median speed), when the runs carry u."""
     stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
     stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)

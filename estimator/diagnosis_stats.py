@@ -150,8 +150,8 @@ def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
 def angle_periodogram(residual: np.ndarray, angle: np.ndarray, lo: int, hi: int,
                       top: int = 2) -> list[int]:
     """The `top` integer orders k in lo..hi [cycles per revolution of `angle`] at the largest
-    peaks of |Σ e·exp(−i·k·angle)|², strongest first: a screen of many orders (thousands) at the cost
-    of two complex vector operations per order (exp(i·k·angle) by recurrence), where
+    peaks of |Σ e·exp(−i·k·angle)|², strongest first: a screen of many orders (thousands) at
+    the cost of two complex vector operations per order (exp(i·k·angle) by recurrence), where
     angle_lines' two-column least squares per order would cost a hundred times more."""
     e = np.asarray(residual, dtype=float)
     a = np.asarray(angle, dtype=float)
