@@ -344,25 +344,20 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
-        if motor or harmonics > 1:
-            # on u (the motor angle over N: `order` cycles per output revolution of u) or q,
-            # with its harmonics 2·order … harmonics·order, each with an unknown phase
-            ang = "u" if motor else "q"
-            names = tuple(f"A_{sc}{j if j > 1 else ''}" for j in range(1, harmonics + 1)
-                          for sc in ("sin", "cos"))
-            return Term(name, names, ("N·m",) * len(names),
-                        lambda s: np.column_stack([
-                            fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
-                            for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
-                        (ang,))
-        if "phase" in shape:
+        if "phase" in shape and not motor and harmonics == 1:
             ph = shape_params["phase"]
             return Term(name, ("A",), ("N·m",),
                         lambda s: fx.gear_ripple_torque(s["q"], 1.0, order, ph), ("q",))
-        return Term(name, ("A_sin", "A_cos"), ("N·m", "N·m"),
-                    lambda s: np.column_stack([fx.gear_ripple_torque(s["q"], 1.0, order, 0.0),
-                                               fx.gear_ripple_torque(s["q"], 1.0, order,
-                                                                     np.pi / 2)]), ("q",))
+        # on q, or on u (the motor angle over N: `order` cycles per output revolution of u),
+        # with its harmonics 2·order … harmonics·order, each with an unknown phase
+        ang = "u" if motor else "q"
+        names = tuple(f"A_{sc}{j if j > 1 else ''}" for j in range(1, harmonics + 1)
+                      for sc in ("sin", "cos"))
+        return Term(name, names, ("N·m",) * len(names),
+                    lambda s: np.column_stack([
+                        fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+                        for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
+                    (ang,))
     if name == "torque_offset" and settling > 0:
         return Term(name, ("c0", "drift", "settle"), ("N·m", "N·m/s", "N·m"),
                     lambda s: np.column_stack([np.ones_like(s["t"]),
