@@ -84,6 +84,11 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig F 20 Hz, 0.001° encoder, 10 ms torque lag, 4+2 runs", "rig_f",
             {"sample_rate_hz": 20.0, "encoder_res_deg": 0.001, "torque_noise": 100.0,
              "torque_lag_s": 0.01}, few_runs=True),
+    Variant("rig G 100 Hz, 0.01° encoder", "rig_g",
+            {"sample_rate_hz": 100.0, "encoder_res_deg": 0.01, "torque_noise": 300.0}),
+    Variant("rig G 40 Hz, 0.005° encoder, 20 ms torque lag, 4+2 runs", "rig_g",
+            {"sample_rate_hz": 40.0, "encoder_res_deg": 0.005, "torque_lag_s": 0.02},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
