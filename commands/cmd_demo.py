@@ -230,20 +230,34 @@ def acquire_over_protocols(quick: bool) -> list:
 
 
 def print_acceptance(acquired: list) -> None:
-    """One line per loading run: the worst error of each Table 11 indicator and pass/fail."""
+    """One line per loading run: the worst error of each Table 11 indicator, the samples the
+    acquisition missed, and pass/fail; then, when samples were missed, how many and what that
+    means for the verdict."""
     from core.acceptance import acceptance, is_loading_run
     print(f"{'run':>5} {'scheme':>6} {'r/min':>6} {'dir':>4}  "
-          f"{'torque err kN·m':>16} {'bending err kN·m':>17} {'shear err kN':>13}  verdict")
-    for rid, _, run in acquired:
+          f"{'torque err kN·m':>16} {'bending err kN·m':>17} {'shear err kN':>13} "
+          f"{'missed':>10}  verdict")
+    missed = planned = 0
+    for rid, outcome, run in acquired:
         if not is_loading_run(run):
             continue
         inds = acceptance(run)
         cells = [f"{ind.max_abs / 1e3:.2f}" if ind.max_abs is not None else "—" for ind in inds]
         verdict = "PASS" if all(ind.passed is not False for ind in inds) else "FAIL"
         m = run.meta
+        slots = outcome.n_samples + outcome.missed
+        missed, planned = missed + outcome.missed, planned + slots
         print(f"{rid:>5} {m['scheme']:>6} {m['motor_speed_rpm']:>6.0f} {m['direction']:>4}  "
-              f"{cells[0]:>16} {cells[1]:>17} {cells[2]:>13}  {verdict}")
+              f"{cells[0]:>16} {cells[1]:>17} {cells[2]:>13} "
+              f"{f'{outcome.missed}/{slots}':>10}  {verdict}")
     print("   tolerance ±2 kN·m (torque, bending) and ±2 kN (shear); `rig show RUN` details one run")
+    if missed:
+        print(f"   the acquisition missed {missed} of these runs' {planned} samples "
+              f"({100.0 * missed / planned:.0f} %): the host was busy, and at {TIME_SCALE:g}x real "
+              f"time a 0.1 s slot of the grid lasts {100.0 / TIME_SCALE:g} ms of wall time. A "
+              "missed sample is neither filled nor judged: each indicator is judged on the "
+              "samples acquired, its settling timed from when the PLC applied the set point "
+              "(`rig show RUN`: judged and missing counts)")
 
 
 def print_excitation() -> None:

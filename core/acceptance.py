@@ -24,12 +24,26 @@ torque set point is the run's own `torque_cmd` channel.
 Which samples are judged: those of the loading phases (load, hold, unload) when the run has a
 `phase` channel, else all; minus the settling after a set point jump, which measures the
 actuator's response, not its loading error: `acceptance_settle_s` [s] (metadata) after the
-start of each loading segment and after each torque set-point step larger than half the
-tolerance between two samples; default five time constants, 5 × dyno_tau for the torque and
-5 × p_tau for the hydraulics (JointParams). Missing samples are not judged and are counted.
+start of each loading segment, after each step of the torque set point `torque_cmd` larger
+than half the tolerance, and — for the hydraulics — after each step of the pressure set point
+the PLC applied (`pressure_sp_applied` [Pa], recorded by the DAQ; APPLIED_PRESSURE) that moves
+the shear or bending set point by more than half its tolerance; default five time constants,
+5 × dyno_tau for the torque and 5 × p_tau for the hydraulics (JointParams). The settling runs
+from when the set point was APPLIED, as recorded: a set point that reached the rig late (a
+starved service; on the emulator at 10× real time, 20 ms of wall time are 0.2 s of rig time)
+moves the actuator's response, not its loading error. A run without the applied pressure
+(an import, the offline emulator, whose set points follow the plan to the step) is timed from
+its loading phases' starts.
+
+Gaps: a step is the change between the set point's last acquired value and its next one; a
+missing reading (NaN) or missed samples between them do not hide it, and its settling runs from
+the first sample that shows it (the latest instant it can have happened; nothing is
+interpolated). Missing samples are not judged and are counted in `missing`: a NaN value of the
+channel, and — for a run with `sample_rate_hz` — each slot k/rate of its grid with no sample
+at all (missed by the acquisition) inside a stretch of judged samples.
 An error indicator passes when max |error| over the judged samples is within the tolerance; it
 is None (not judged) when the channel is absent or no sample is judged. Items 1–3 judge every
-sample of the run.
+sample of the run (and count every missing one, missed grid slots included).
 """
 
 from __future__ import annotations
@@ -52,6 +66,9 @@ SHEAR_SETPOINT = 90e3
 """Shear loading value of the schemes [N] (Table 11 item 3)."""
 BEND_RANGE = 250e3
 """Top of the bending moment loading range [N·m] (Table 11 item 2)."""
+APPLIED_PRESSURE = "pressure_sp_applied"
+"""Channel of the hydraulic pressure set point as the PLC applied it [Pa] (the PLC status
+signal of that name, recorded by the DAQ): its steps time the hydraulics' settling."""
 
 
 @dataclass
@@ -117,13 +134,47 @@ def _segment_starts(mask: np.ndarray) -> np.ndarray:
     return np.flatnonzero(mask & ~np.concatenate([[False], mask[:-1]]))
 
 
+def _steps(sp: np.ndarray, threshold: float) -> np.ndarray:
+    """Indices of the samples at which the set point `sp` shows a change of more than
+    `threshold` from its last acquired (finite) value: NaN readings in between are skipped,
+    not compared (a NaN would hide the step), and the step is placed at the first sample that
+    shows it."""
+    ok = np.flatnonzero(np.isfinite(sp))
+    if len(ok) < 2:
+        return np.zeros(0, dtype=int)
+    v = sp[ok]
+    return ok[1:][np.abs(np.diff(v)) > threshold]
+
+
+def _missed_slots(run: RunData, t: np.ndarray) -> np.ndarray:
+    """Per sample: the slots of the run's grid (k / sample_rate_hz) with no sample between the
+    previous sample and this one — missed by the acquisition (zeros without a sample rate)."""
+    rate = run.meta.get("sample_rate_hz")
+    out = np.zeros(len(t), dtype=int)
+    try:
+        rate = float(rate)
+    except (TypeError, ValueError):
+        return out
+    if not (rate > 0 and np.isfinite(rate)) or len(t) < 2 or not np.isfinite(t).all():
+        return out
+    slot = np.floor(t * rate + 1e-6)
+    out[1:] = np.maximum(np.diff(slot) - 1, 0).astype(int)
+    return out
+
+
 def _indicator(name: str, channel: str, unit: str, setpoint_text: str, tol: float,
-               err: np.ndarray | None, judge: np.ndarray, note: str = "") -> Indicator:
+               err: np.ndarray | None, judge: np.ndarray, note: str = "",
+               missed: np.ndarray | None = None) -> Indicator:
+    """`missed`: per sample, grid slots missed just before it (_missed_slots); counted as
+    missing when the samples on both sides of the gap are judged."""
     if err is None:
         return Indicator(name, channel, unit, setpoint_text, tol, 0, 0, None, None, None, None,
                          note or f"no {channel} channel")
     ok = judge & ~np.isnan(err)
     missing = int(np.sum(judge & np.isnan(err)))
+    if missed is not None and len(judge) > 1:
+        inside = judge[1:] & judge[:-1]          # the gap before sample i lies in a judged stretch
+        missing += int(np.sum(missed[1:][inside]))
     if not ok.any():
         return Indicator(name, channel, unit, setpoint_text, tol, 0, missing, None, None, None,
                          None, note or "no sample to judge")
@@ -134,10 +185,11 @@ def _indicator(name: str, channel: str, unit: str, setpoint_text: str, tol: floa
 
 
 def _reach_indicator(item: int, name: str, channel: str, unit: str, kind: str, required: float,
-                     tol: float, values: np.ndarray | None, aimed: bool, aim_text: str
-                     ) -> Indicator:
+                     tol: float, values: np.ndarray | None, aimed: bool, aim_text: str,
+                     n_missed: int = 0) -> Indicator:
     """Items 1–3: did the measured `values` reach `required` (and, for a range, 0) within
-    `tol`? Fails only when the run aimed at it (see the module doc)."""
+    `tol`? Fails only when the run aimed at it (see the module doc). `n_missed`: grid slots of
+    the run with no sample, counted as missing."""
     k = "kN·m" if unit == "N·m" else "kN"
     target = (f"0–{required / 1e3:g} {k}" if kind == "range" else f"{required / 1e3:g} {k}")
 
@@ -148,7 +200,7 @@ def _reach_indicator(item: int, name: str, channel: str, unit: str, kind: str, r
     if values is None:
         return make(None, "not measured", f"no {channel} channel")
     ok = np.isfinite(values)
-    judged, missing = int(ok.sum()), int((~ok).sum())
+    judged, missing = int(ok.sum()), int((~ok).sum()) + n_missed
     if not judged:
         return make(None, "not measured", f"no {channel} sample", 0, missing)
     reached, low = float(np.max(values[ok])), float(np.min(values[ok]))
@@ -185,16 +237,17 @@ def acceptance(run: RunData, params: JointParams | None = None) -> list[Indicato
     t = run.t
     loading = _loading_mask(run)
     starts = _segment_starts(loading)
+    missed = _missed_slots(run, t)
     settle_meta = meta.get("acceptance_settle_s")
 
     # torque: measured load vs its set point channel
     settle_q = settle_meta if settle_meta is not None else 5.0 * params.dyno_tau
     if "torque_load" in cols and "torque_cmd" in cols:
         cmd = run.channel("torque_cmd")
-        step = np.concatenate([[False], np.abs(np.diff(cmd)) > TORQUE_TOL / 2])
-        judge = loading & ~_settling(t, np.concatenate([starts, np.flatnonzero(step)]), settle_q)
+        judge = loading & ~_settling(t, np.concatenate([starts, _steps(cmd, TORQUE_TOL / 2)]),
+                                     settle_q)
         torque = _indicator(names[0], chans[0], units[0], "torque_cmd", TORQUE_TOL,
-                            run.channel("torque_load") - cmd, judge)
+                            run.channel("torque_load") - cmd, judge, missed=missed)
     else:
         absent = "torque_load" if "torque_load" not in cols else "torque_cmd"
         torque = _indicator(names[0], chans[0], units[0], "torque_cmd", TORQUE_TOL, None, loading,
@@ -208,13 +261,23 @@ def acceptance(run: RunData, params: JointParams | None = None) -> list[Indicato
     bend_sp = meta.get("bend_setpoint_nm")
     bend_sp = shear_sp * params.arm_bend if bend_sp is None else float(bend_sp)
     settle_h = settle_meta if settle_meta is not None else 5.0 * params.p_tau
-    judge_h = loading & ~_settling(t, starts, settle_h)
+    starts_h = starts
+    if APPLIED_PRESSURE in cols:   # when the PLC switched the hydraulic load (module doc)
+        # a step moving the shear set point by half its tolerance, or the bending one by half
+        # of its own: the pressure change times the cylinder area (times the lever)
+        dp = 0.5 * min(SHEAR_TOL, TORQUE_TOL / params.arm_bend) / params.cyl_area
+        starts_h = np.concatenate([starts, _steps(run.channel(APPLIED_PRESSURE), dp)])
+    judge_h = loading & ~_settling(t, starts_h, settle_h)
     bend = _indicator(names[1], chans[1], units[1], f"{bend_sp:g} N·m", TORQUE_TOL,
-                      run.channel("m_bend") - bend_sp if "m_bend" in cols else None, judge_h)
+                      run.channel("m_bend") - bend_sp if "m_bend" in cols else None, judge_h,
+                      missed=missed)
     shear = _indicator(names[2], chans[2], units[2], f"{shear_sp:g} N", SHEAR_TOL,
-                       run.channel("f_shear") - shear_sp if "f_shear" in cols else None, judge_h)
+                       run.channel("f_shear") - shear_sp if "f_shear" in cols else None, judge_h,
+                       missed=missed)
     for ind, item in zip((torque, bend, shear), items):
         ind.item = item
+
+    n_missed = int(missed.sum())
 
     # items 1-3: what the run showed, and whether it aimed at it
     def channel(name: str) -> np.ndarray | None:
@@ -226,13 +289,13 @@ def acceptance(run: RunData, params: JointParams | None = None) -> list[Indicato
     reach = [
         _reach_indicator(1, names[3], chans[3], units[3], "range", RANGE_TORQUE, TORQUE_TOL,
                          channel("torque_load"), top_cmd >= RANGE_TORQUE - TORQUE_TOL,
-                         f"torque set point up to {top_cmd / 1e3:g} kN·m"),
+                         f"torque set point up to {top_cmd / 1e3:g} kN·m", n_missed),
         _reach_indicator(2, names[4], chans[4], units[4], "range", BEND_RANGE, TORQUE_TOL,
                          channel("m_bend"), bend_sp >= BEND_RANGE - TORQUE_TOL,
-                         f"bending set point {bend_sp / 1e3:g} kN·m"),
+                         f"bending set point {bend_sp / 1e3:g} kN·m", n_missed),
         _reach_indicator(3, names[5], chans[5], units[5], "value", SHEAR_SETPOINT, SHEAR_TOL,
                          channel("f_shear"), shear_sp >= SHEAR_SETPOINT - SHEAR_TOL,
-                         f"shear set point {shear_sp / 1e3:g} kN"),
+                         f"shear set point {shear_sp / 1e3:g} kN", n_missed),
     ]
     return [torque, bend, shear, *reach]
 

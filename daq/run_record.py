@@ -20,6 +20,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
+from core.acceptance import APPLIED_PRESSURE
 from core.channels import unit_of
 from core.documents import (INTERRUPTION_KINDS, Baseline, Counters, EventNote, RunStart,
                             StreamDescriptor)
@@ -29,10 +30,24 @@ from daq.plans import Plan
 from daq.rig import Rig, RigEvent
 from db.writer import ChannelSpec
 
+PLC_EXTRA_CHANNELS: tuple[tuple[str, str], ...] = (("pressure_sp_applied", APPLIED_PRESSURE),)
+"""(status signal, channel) of the PLC status signals recorded as extra channels (run-format.md
+keeps unknown columns), unit from the register map: the hydraulic pressure set point as the
+PLC applied it [Pa] — when the hydraulic load was actually switched, which the Table 11
+settling starts from (core/acceptance.py APPLIED_PRESSURE; the torque's counterpart is
+`torque_cmd`)."""
+
 PLC_CHANNELS: tuple[tuple[str, str], ...] = tuple(
     (s.name, s.channel) for s in REGISTER_MAP.status.signals
-    if s.channel is not None and s.channel != "t")
-"""(status signal, run-format channel) of every PLC status signal that is a channel."""
+    if s.channel is not None and s.channel != "t") + PLC_EXTRA_CHANNELS
+"""(status signal, channel) of every PLC status signal recorded per sample: those that are a
+run-format channel, then PLC_EXTRA_CHANNELS."""
+
+
+def plc_unit(signal: str) -> str:
+    """SI unit of a PLC status signal's channel (the register map's; for a run-format channel
+    the same as core.channels says, tests/test_drivers_plc_map.py)."""
+    return REGISTER_MAP.signals[signal].unit
 
 BASELINE_PLC_SIGNALS = ("plc_mode", "fault_code", "status_bits", "pump_state", "valve_state",
                         "pressure_sp_applied", "torque_cmd")
@@ -68,7 +83,7 @@ def plan_units(plan: Plan) -> dict[str, str]:
 def stream_descriptors(plan: Plan, rig: Rig) -> dict[str, StreamDescriptor]:
     """One descriptor per stream: its source and its channels with units."""
     s = rig.settings
-    plc = {ch: unit_of(ch) for _, ch in PLC_CHANNELS}
+    plc = {ch: plc_unit(sig) for sig, ch in PLC_CHANNELS}
     out: dict[str, StreamDescriptor] = {
         "plc": {"source": f"PLC status block, Modbus TCP {s.plc_host}:{s.plc_port}",
                 "clock": "rig_time (PLC acquisition clock)",
@@ -92,7 +107,7 @@ def stream_descriptors(plan: Plan, rig: Rig) -> dict[str, StreamDescriptor]:
 def channel_specs(plan: Plan, rig: Rig) -> list[ChannelSpec]:
     """The run's channels in stored order: t, the PLC's, each drive's, the plan's."""
     specs = [ChannelSpec("t", "s", "plc:rig_time")]
-    specs += [ChannelSpec(ch, unit_of(ch), f"plc:{sig}") for sig, ch in PLC_CHANNELS]
+    specs += [ChannelSpec(ch, plc_unit(sig), f"plc:{sig}") for sig, ch in PLC_CHANNELS]
     if rig.drives is not None:
         for d in rig.drives.drives:
             src = f"drive {d.node_id}"

@@ -15,6 +15,7 @@ from importlib import metadata
 import numpy as np
 import pytest
 
+from core.params import JointParams
 from daq.engine import PLC_CHANNELS, Engine
 from daq.plans import Plan
 from daq.plc import PlcClient
@@ -133,6 +134,12 @@ def test_scheme_runs_into_the_database(standin, db_url, number):  # noqa: F811
             assert np.nanmax(d["torque_cmd"]) == pytest.approx(20e3, rel=0.03)
             assert np.nanmax(d["torque"]) > 15e3
             assert np.nanmedian(d["f_shear"][moving]) == pytest.approx(90e3, rel=0.1)
+            # the hydraulic set point as the PLC applied it (what times the Table 11 settling,
+            # core/acceptance.py): 0 until the loading, then 90 kN over the cylinder's area
+            assert unit["pressure_sp_applied"] == "Pa"
+            p_app = d["pressure_sp_applied"]
+            assert p_app[0] == 0.0
+            assert np.nanmax(p_app) == pytest.approx(90e3 / JointParams().cyl_area, rel=1e-3)
         else:
             # position control: q follows the reference within a small fraction of its swing
             err = d["q"][moving] - d["q_ref"][moving]
