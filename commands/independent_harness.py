@@ -234,7 +234,20 @@ def cells_for(variant: Variant, seeds: list[int], enrs: tuple[float, ...],
 
 
 def _run(args: tuple) -> dict:
-    return run_cell(*args)
+    """One cell; a campaign on which the diagnosis (or the rig) raises is scored as a failure
+    of every figure it enters (status `error`, nothing named), with the error, instead of
+    ending the score and losing every other cell."""
+    t0 = time.perf_counter()
+    try:
+        return run_cell(*args)
+    except Exception as exc:       # noqa: BLE001 - any failure is a result of the score
+        variant, seed, effect, form, enr, kind = args
+        return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
+                "form": form, "enr": enr, "enr_realised": float("nan"), "status": "error",
+                "effects": [], "laws": {"output": [], "transmission": []},
+                "named_first": None, "first_alike": [], "extra": [], "shrinkages": [],
+                "seconds": time.perf_counter() - t0,
+                "error": f"{type(exc).__name__}: {exc}"}
 
 
 def validate_independent(seeds: int = 1, first_seed: int = 1, quick: bool = False,
@@ -293,6 +306,7 @@ def score(cells: list[dict]) -> dict[str, Any]:
                                 if oov else None)
     err = [abs(a - p) for c in single for a, p in c["shrinkages"]]
     out["shrinkage_abs_error_median"] = float(np.median(err)) if err else None
+    out["errors"] = int(sum(c["status"] == "error" for c in cells))
     out["by_variant"] = {}
     for v in sorted({c["variant"] for c in cells}):
         cv = [c for c in cells if c["variant"] == v]
@@ -357,6 +371,9 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
         g = own_map["top-1 at ENR >= 1"] - s["top1_enr_ge_1"]
         lines.append(f"{'own-emulator minus independent top-1':42} {'':6} {'':6} {g:6.3f}  "
                      f"<= 0.05  {'ok' if g <= 0.05 else 'NO'}")
+    if s.get("errors"):
+        lines.append(f"({s['errors']} campaigns raised an error in the diagnosis: scored as "
+                     "failures, listed below)")
     if s.get("top1_through_ambiguity_set"):
         lines.append(f"(top-1 counts {s['top1_through_ambiguity_set']} single-effect campaigns "
                      "whose effect was named in the first effect's ambiguity set)")
@@ -369,11 +386,11 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
                      f"  median diagnosis {d['median_seconds']:.1f} s")
     missed = [c for c in ind["cells"] if (c["kind"] == "single" and c["enr"] >= 1.0
                                           and not _hit(c))
-              or (c["kind"] == "none" and c["status"] != "none")]
+              or (c["kind"] == "none" and c["status"] != "none") or c["status"] == "error"]
     if missed:
         lines += ["", f"cells missed ({len(missed)}):"]
         for c in missed[:40]:
             lines.append(f"  {c['variant'][:10]:10} seed {c['seed']:>5} {c['kind']:6} "
                          f"{str(c['effect']):24} {str(c['form']):14} ENR {c['enr']:.1f}: "
-                         f"{c['status']} {c['effects']}")
+                         f"{c['status']} {c.get('error') or c['effects']}")
     return "\n".join(lines)

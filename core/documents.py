@@ -207,6 +207,9 @@ class RunEnd(TypedDict, total=False):
     and the reason are the run row's own columns): the outputs after make-safe, the end
     baseline, the counters and every rig event of the session in run time."""
     after_make_safe: str
+    drives_stopped: str
+    """Whether every drive reported it left OPERATION ENABLED after the quick stop (its status
+    TPDO), and how soon; or which drive did not within the bound (daq.engine.DRIVE_STOP_WAIT_S)."""
     final_collect_error: str
     end: Baseline
     counters: Counters

@@ -34,7 +34,7 @@ import contextlib
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -133,6 +133,27 @@ def _named(table: dict[int, str], value: float | None) -> str:
     if value is None or not math.isfinite(value):
         return "unknown"
     return table.get(int(value), "unknown")
+
+
+DRIVE_STOP_WAIT_S = 1.0
+"""How long [s] the end of a run waits for every drive's status TPDO to confirm the quick stop
+(the state leaves OPERATION ENABLED) before it reads the end baseline: the quick stop goes out
+as an RPDO and a drive reports its new state only with its next TPDO, which a loaded host
+receives late — the end record would otherwise show a stopped drive as enabled."""
+
+
+async def drives_left_operation(drives: Sequence, timeout_s: float) -> str:
+    """Wait until no drive reports OPERATION ENABLED, at most timeout_s; say how it ended."""
+    t0 = time.monotonic()
+    while True:
+        running = [d for d in drives if d.state == "OPERATION ENABLED"]
+        waited = time.monotonic() - t0
+        if not running:
+            return f"every drive left OPERATION ENABLED within {waited:.2f} s"
+        if waited >= timeout_s:
+            return ("still reporting OPERATION ENABLED after "
+                    f"{timeout_s:g} s: drive(s) {', '.join(str(d.node_id) for d in running)}")
+        await asyncio.sleep(0.01)
 
 
 def rig_state(rig: Rig) -> RigState:
@@ -297,6 +318,9 @@ class Engine:
         notes: RunEnd = {}
         await rig.make_safe(f"run ended: {status}" + (f" ({reason})" if reason else ""))
         notes["after_make_safe"] = await self._final_outputs()
+        if rig.drives is not None:   # the end baseline shows the drives as they confirmed it
+            notes["drives_stopped"] = await drives_left_operation(rig.drives.drives,
+                                                                  DRIVE_STOP_WAIT_S)
         if self.writer is not None and self.writer.run_id is not None:
             try:  # what was acquired up to now, including the way down to safe
                 self._collect(final=True)

@@ -457,6 +457,8 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     pooled = _pool(list(runs), list(model.requires), lo_prep, 0)
     if transient_s > 0:
         pooled = _slice(pooled, ~transient_mask(pooled, transient_s))
+    if pooled["t"].size <= 2 * len(model.param_names):   # nothing steady to measure I on
+        return prep, None
     fit = _fit(model, {}, pooled, pooled)
     inertia = float(fit.theta[model.param_names.index("I_xx")])
     if not inertia > 0:
@@ -470,6 +472,8 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     full = _pool(list(runs), list(model.requires), prep, 0)
     if transient_s > 0:
         full = _slice(full, ~transient_mask(full, transient_s))
+    if full["t"].size <= 2 * len(model.param_names):
+        return prep, None
     e = _fit(model, {}, full, full).e_train
     line = spectral_line(e, full["t"], full["run"])
     if not (line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
@@ -510,6 +514,13 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     tr, te = _slice(pooled, is_train), _slice(pooled, ~is_train)
     if "qd" not in pooled or "torque" not in pooled:
         raise ValueError("the diagnosis needs a velocity (or position) and a torque channel")
+    for part, sig in (("training", tr), ("held-out", te)):
+        if not sig["t"].size:
+            raise ValueError(
+                f"the {law} has no {part} sample left to diagnose on: {n_transient} samples lie "
+                f"within {opt.transient_s:g} s of near-zero speed (|q̇| below 5 % of the "
+                "campaign's top speed, which one run much faster than the others sets) and "
+                "are left out, the rest had a missing channel")
 
     n_per_run = np.bincount(pooled["run"])
     block = opt.block or max(10, int(np.sqrt(np.median(n_per_run))))

@@ -403,3 +403,18 @@ def test_a_viscosity_exponential_in_temperature_is_named_with_its_curvature():
                    options=DiagnosisOptions(candidates=("temperature_friction",)))
     assert rep["verdict"]["effects"] == ["temperature_friction"]
     assert rep["verdict"]["shapes"]["temperature_friction"].get("curvature", 0.0) > 0.0
+
+
+def test_a_campaign_with_no_steady_sample_left_is_refused_in_words():
+    """One run far faster than the others (rig G's blind score: a kinematic ripple scaled 199×
+    by the harness, 0.62 rad/s against 0.03) sets the campaign's top speed, so every sample of
+    the other runs lies within the transient window of near-zero speed and none is left. The
+    diagnosis said `cannot convert float NaN to integer`; it now says what happened."""
+    from commands.independent_harness import VARIANTS, simulate_campaign
+    from core.run import RunData
+    train, test, _ = simulate_campaign(VARIANTS[0], 7)
+    wild = train[0].samples.copy()
+    wild["qd"] = wild["qd"] * 1e4
+    train = [RunData(samples=wild, meta=dict(train[0].meta))] + list(train[1:])
+    with pytest.raises(ValueError, match=r"no (training|held-out) sample left .* near-zero speed"):
+        diagnose(train, test, "eq4", transmission=None)

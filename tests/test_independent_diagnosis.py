@@ -1,8 +1,8 @@
 """The gap diagnosis on campaigns of the independently written validation rigs, which it was never
 tuned on (commands.independent_harness): nothing withheld gives `none`, one form of each effect
 family at ENR 2 is named first on the law it acts on, an effect outside the vocabulary is not
-explained — on the two-inertia and planned-motion rigs, rigs B, C and F (rig F's after its blind
-score); rig E's stiffening transmission and intermediate-stage ripple. Fixed seeds (21, 22),
+explained — on the two-inertia and planned-motion rigs, rigs B, C, F and G (rigs F's and G's
+after their blind scores); rig E's stiffening transmission and intermediate-stage ripple. Fixed seeds (21, 22),
 chosen before these campaigns were ever diagnosed (rig E's nominal: its blind seed, 801)."""
 
 from __future__ import annotations
@@ -26,6 +26,10 @@ RIG_F_FEW = Variant("rig F 20 Hz, 0.001°, 10 ms lag, 4+2 runs", "rig_f",
                     {"sample_rate_hz": 20.0, "encoder_res_deg": 0.001, "torque_noise": 100.0,
                      "torque_lag_s": 0.01}, few_runs=True)
 
+RIG_G_FEW = Variant("rig G 40 Hz, 0.005°, 20 ms lag, 4+2 runs", "rig_g",
+                    {"sample_rate_hz": 40.0, "encoder_res_deg": 0.005, "torque_lag_s": 0.02},
+                    few_runs=True)
+
 RIG_C_200 = Variant("rig C 200 Hz, 10 ms lag", "rig_c",
                     {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_lag_s": 0.01})
 
@@ -36,8 +40,15 @@ FAMILIES = [("stribeck", "lorentz"), ("temperature_friction", "mult_both"),
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("variant", [TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW],
-                         ids=lambda v: v.rig)
+@pytest.mark.parametrize("variant", [
+    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW,
+    # a known defect found by rig G's blind score (docs/diagnosis.md, "Rig G"): a harmonic
+    # drive's three-segment compliance is named `backlash`. Strict: a fix makes it fail until
+    # the mark is removed.
+    pytest.param(RIG_G_FEW, marks=pytest.mark.xfail(
+        strict=True, reason="rig G's three-segment compliance named backlash (docs/diagnosis.md, "
+                            "Rig G)"))],
+    ids=lambda v: v.rig)
 def test_nothing_withheld_is_none(variant):
     c = run_cell(variant, 21, None, None, 0.0, "none")
     assert c["status"] == "none" and c["effects"] == [], c
@@ -78,8 +89,10 @@ def test_each_family_of_rig_c_is_named_first_on_its_law(effect):
                                             (PLANNED_FEW, "position_stiffness"),
                                             (RIG_B, "second_resonance"),
                                             (RIG_C_FEW, "periodic_disturbance"),
-                                            (RIG_F_FEW, "periodic_disturbance")],
-                         ids=["two_inertia", "planned_motion", "rig_b", "rig_c", "rig_f"])
+                                            (RIG_F_FEW, "periodic_disturbance"),
+                                            (RIG_G_FEW, "periodic_disturbance")],
+                         ids=["two_inertia", "planned_motion", "rig_b", "rig_c", "rig_f",
+                              "rig_g"])
 def test_an_effect_outside_the_vocabulary_is_not_explained(variant, effect):
     from commands.independent_harness import rig_module
     mod = rig_module(variant.rig)
@@ -115,6 +128,33 @@ def test_independent_scores_and_the_side_by_side_table():
                                      "seeds": 1, "first_seed": 31, "seconds": 1.0})
     assert "own-emulator minus independent top-1" in text and " 0.500  <= 0.05  NO" in text
     assert "cells missed (2)" in text   # the stribeck miss and the none cell that named one
+
+
+def test_a_campaign_the_diagnosis_fails_on_is_scored_as_a_failure(monkeypatch):
+    """One campaign that raises must not end the score (rig G's blind score lost its first
+    30 cells that way): it is an `error` cell, a miss in every figure it enters, listed with
+    its error."""
+    import commands.independent_harness as h
+
+    def boom(variant, seed, effect, form, enr, kind):
+        if effect == "backlash":
+            raise ValueError("cannot convert float NaN to integer")
+        if effect is None:
+            return _cell(kind, None, None, 0.0, "none", [], None, shr=())
+        return _cell(kind, effect, form, enr, "explained", [effect], effect)
+
+    monkeypatch.setattr(h, "run_cell", boom)
+    v = Variant("v", "rig_g", {})
+    cells = [h._run((v, 1, "stribeck", "gauss", 1.0, "single")),
+             h._run((v, 1, "backlash", "sharp", 1.0, "single")),
+             h._run((v, 1, None, None, 0.0, "none"))]
+    bad = cells[1]
+    assert bad["status"] == "error" and bad["effects"] == [] and "NaN" in bad["error"]
+    s = h.score(cells)
+    assert s["errors"] == 1 and s["top1_enr_ge_1"] == 0.5
+    text = h.format_side_by_side(None, {"scores": s, "cells": cells, "variants": ["v"],
+                                        "seeds": 1, "first_seed": 1, "seconds": 1.0})
+    assert "1 campaigns raised an error" in text and "cannot convert float NaN" in text
 
 
 @pytest.mark.slow
