@@ -89,6 +89,11 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig G 40 Hz, 0.005° encoder, 20 ms torque lag, 4+2 runs", "rig_g",
             {"sample_rate_hz": 40.0, "encoder_res_deg": 0.005, "torque_lag_s": 0.02},
             few_runs=True),
+    Variant("rig H 200 Hz, 0.002° encoder", "rig_h",
+            {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_noise": 200.0}),
+    Variant("rig H 20 Hz, 0.02° encoder, 5 ms torque lag, 4+2 runs", "rig_h",
+            {"sample_rate_hz": 20.0, "encoder_res_deg": 0.02, "torque_noise": 150.0,
+             "torque_lag_s": 0.005}, few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
