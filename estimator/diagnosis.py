@@ -77,7 +77,8 @@ from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinka
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
 from estimator.emps import emps_model
-from estimator.models import LinearModel, eq11, model_from_spec, with_stiffening
+from estimator.models import (LinearModel, eq11, knee_column, model_from_spec,
+                              with_stiffening)
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
 from core import effects as fx
@@ -742,6 +743,51 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
 TRANSMISSION_SIGNALS = ("torsion", "torsion_rate", "torque")
 
 
+def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
+    """The two knee twists [rad] of the nominal compliance curve: the pair of
+    `opt.compliance_knee_rel` (fractions of the training twist's top |Δ|, its 99th
+    percentile) whose elastic law — T = k·Δ + D·Δ̇ + C + k3·Δ³ + the two stiffness changes —
+    has the smallest training RSS (profile least squares over the knees)."""
+    if min(opt.compliance_knee_rel) <= max(opt.backlash_b_rel):
+        raise ValueError("compliance_knee_rel must lie above backlash_b_rel (a knee inside the "
+                         "dead zones searched would take backlash's place)")
+    d = np.asarray(tr["torsion"], dtype=float)
+    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
+    base = np.column_stack([d, tr["torsion_rate"], np.ones_like(d), d ** 3])
+    base = base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0), 1.0)
+    # the knee columns and the torque with the rest of the law projected out: each pair's RSS
+    # is then a 2 × 2 solve
+    q, _ = np.linalg.qr(base)
+    y = np.asarray(tr["torque"], dtype=float)
+    y = y - q @ (q.T @ y)
+
+    def best_pair(knees: list[float], allowed) -> tuple[float, tuple[float, float]]:
+        h = np.column_stack([knee_column(k)(tr) for k in knees])
+        h = h - q @ (q.T @ h)
+        gram, hy = h.T @ h, h.T @ y
+        best, pair = np.inf, (knees[0], knees[-1])
+        for i in range(len(knees)):
+            for j in range(i + 1, len(knees)):
+                if not allowed(knees[i], knees[j]):
+                    continue
+                ij = [i, j]
+                coef = np.linalg.lstsq(gram[np.ix_(ij, ij)], hy[ij], rcond=None)[0]
+                rss = float(y @ y - hy[ij] @ coef)
+                if rss < best:
+                    best, pair = rss, (knees[i], knees[j])
+        return best, pair
+
+    rel = sorted(set(opt.compliance_knee_rel))
+    _, pair = best_pair([r * top for r in rel], lambda a, b: True)
+    # then each knee to a fifth of the grid's step, within half a step of the grid's choice
+    step = min(np.diff(rel)) * top if len(rel) > 1 else 0.05 * top
+    lo = rel[0] * top
+    fine = sorted({max(lo, k + f * step) for k in pair for f in np.linspace(-0.5, 0.5, 6)})
+    _, pair = best_pair(fine, lambda a, b: (abs(a - pair[0]) <= 0.51 * step
+                                            and abs(b - pair[1]) <= 0.51 * step))
+    return float(pair[0]), float(pair[1])
+
+
 def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
                        ) -> tuple[LinearModel, dict]:
     """The nominal twist–torque law and the shape chosen for it on the training signals `tr`:
@@ -750,7 +796,10 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
     squares); 'eq5' — the elastic law (then hysteresis is a candidate); or any transmission
     model / spec of estimator.models; each with a stiffness that changes with the twist
     (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
-    law, identified like k, not a gap)."""
+    law, identified like k, not a gap; its knees from compliance_knees, reported in the
+    shape as knee_1, knee_2 [rad])."""
+    knees = compliance_knees(tr, opt)
+    knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
         from scipy.optimize import minimize
 
@@ -770,11 +819,12 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
         res = minimize(rss, v0, method="Nelder-Mead",
                        options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
         sh = shape(res.x if res.fun <= rss(v0) else v0)
-        return with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"])), sh
+        return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees),
+                {**sh, **knee_shape})
     m = base_model(spec)
     if m.kind != "transmission":
         raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
-    return with_stiffening(m), {}
+    return with_stiffening(m, knees), knee_shape
 
 
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],

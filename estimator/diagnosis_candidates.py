@@ -13,7 +13,7 @@ from core import effects as fx
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import angle_lines, angle_periodogram, mean_se
 from estimator.least_squares import OLSResult, leave_one_group_out, ols
-from estimator.models import LinearModel
+from estimator.models import LinearModel, physical_objection
 
 
 def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
@@ -166,6 +166,9 @@ class _Fit:
     e_test: np.ndarray
     rmse_train_dof: float
     ols: OLSResult | None = None
+    objection: str | None = None
+    """Why the fitted effect is not physical (estimator.models.physical_objection): such a
+    fit is never significant."""
 
 
 def _fit(model: LinearModel, shape: dict, tr: dict, te: dict) -> _Fit:
@@ -193,13 +196,23 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
     else:
         ranked = sorted(((ols(m.design(tr), m.target(tr)).rss, i) for i, (_, m) in
                          enumerate(models)))
-    shape, m = models[ranked[0][1]]
+    # the best shape whose fitted effect has its physics' sign (a dead zone that stiffens the
+    # centre is no backlash); none: the best one, with its objection
+    first = None
+    for _, i in ranked:
+        shape, m = models[i]
+        objection = physical_objection(m, ols(m.design(tr), m.target(tr)).theta)
+        first = first or (shape, m, objection)
+        if objection is None:
+            break
+    else:
+        shape, m, objection = first
     if "beta" in shape and m.kind != "transmission":
         # the profile RSS over Bouc–Wen shapes has several basins: refine the three best
         # grid points and keep the best result
         tries = [_refined_bouc_wen(*models[i], tr) for _, i in ranked[:3]]
         shape, m = min(tries, key=lambda sm: ols(sm[1].design(tr), sm[1].target(tr)).rss)
-    return _fit(m, shape, tr, te)
+    return replace(_fit(m, shape, tr, te), objection=objection)
 
 
 def _refined_bouc_wen(shape: dict, m: LinearModel, tr: dict) -> tuple[dict, LinearModel]:
@@ -266,7 +279,9 @@ def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
             "shrinkage_loro": (predicted_shrinkage(cur.model, new.model, tr) if tr is not None
                                else None),
             "gain": float(gain), "gain_se": float(se), "z": float(z),
-            "significant": bool(z > opt.z_gain and shrink >= opt.min_shrinkage)}
+            "significant": bool(new.objection is None and z > opt.z_gain
+                                and shrink >= opt.min_shrinkage),
+            **({"objection": new.objection} if new.objection else {})}
 
 
 def _predicted(cur: _Fit, new: _Fit, rmse_before_test: float, opt: DiagnosisOptions) -> float:

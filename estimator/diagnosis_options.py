@@ -55,6 +55,12 @@ class DiagnosisOptions:
     backlash_b_rel: tuple[float, ...] = (0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.13)
     """Backlash dead-zone half-widths b searched, as fractions of the training runs' top |Δ|
     (99th percentile of the twist)."""
+    compliance_knee_rel: tuple[float, ...] = (0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6,
+                                              0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
+    """Knee twists searched for the two stiffness changes of the nominal compliance curve
+    (estimator.models.with_stiffening), as fractions of the training runs' top |Δ|; all above
+    the widest backlash b searched (backlash_b_rel), so a softening within ±b stays the backlash
+    candidate's and a stiffness change beyond it is the curve's."""
     bw_yield_rel: tuple[float, ...] = (0.01, 0.02, 0.04, 0.07, 0.12, 0.2, 0.35)
     """Bouc–Wen yield twists α/(β+γ) searched (α = 1, n = 1; only α·k_h is identifiable), as
     fractions of the training runs' top |Δ| — for the nominal Bouc–Wen law and for the

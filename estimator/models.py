@@ -23,7 +23,7 @@ y = X·θ + e. The physics comes from core.terms and core.effects only:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -135,18 +135,34 @@ def eq5(offset: bool = True) -> LinearModel:
                                      "C": "constant torque"})
 
 
-def with_stiffening(m: LinearModel) -> LinearModel:
-    """The twist–torque law `m` plus a stiffness that changes with the twist, k3·Δ³
-    (N·m/rad³): a harmonic drive's or a gear train's compliance curve stiffens as the teeth
-    take load (Taghirad & Bélanger), so its elastic law is not k·Δ alone. Named
-    '<m>+stiffening'; m unchanged when it has k3 already."""
+def knee_column(knee: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]:
+    """The column of a stiffness change beyond the twist `knee` [rad]:
+    sgn(Δ)·max(|Δ| − knee, 0) (zero inside ±knee, slope 1 beyond)."""
+    def col(s: Mapping[str, np.ndarray]) -> np.ndarray:
+        d = np.asarray(s["torsion"], dtype=float)
+        return np.sign(d) * np.maximum(np.abs(d) - knee, 0.0)
+    return col
+
+
+def with_stiffening(m: LinearModel, knees: Sequence[float] = ()) -> LinearModel:
+    """The twist–torque law `m` plus the compliance curve a real transmission has, identified
+    like k: a cubic k3·Δ³ [N·m/rad³] (a gear train stiffening smoothly as its teeth take load)
+    and, at each knee twist θ_j [rad], a change of stiffness dk_j [N·m/rad] beyond it,
+    dk_j·sgn(Δ)·max(|Δ| − θ_j, 0) — a harmonic drive's catalogue curve is three slopes
+    K1 < K2 < K3 joined at two knee torques (Taghirad & Bélanger), which no single k and no
+    smooth polynomial of Δ follows. Named '<m>+stiffening'; m unchanged when it has k3
+    already."""
     if "k3" in m.param_names:
         return m
-    term = Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
-                ("torsion",))
-    return replace(m, name=f"{m.name}+stiffening", terms=m.terms + (term,),
-                   descriptions={**m.descriptions,
-                                 "k3": "cubic stiffness: the stiffness rises by 3·k3·Δ²"})
+    terms = [Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
+                  ("torsion",))]
+    desc = {"k3": "cubic stiffness: the stiffness rises by 3·k3·Δ²"}
+    for j, knee in enumerate(knees, start=1):
+        terms.append(Term(f"knee {j} at {knee:.3g} rad", (f"dk_{j}",), ("N·m/rad",),
+                          knee_column(float(knee)), ("torsion",)))
+        desc[f"dk_{j}"] = f"stiffness change beyond the twist {knee:.3g} rad"
+    return replace(m, name=f"{m.name}+stiffening", terms=m.terms + tuple(terms),
+                   descriptions={**m.descriptions, **desc})
 
 
 def bouc_wen_x(sig: Mapping[str, np.ndarray], alpha: float, beta: float, gamma: float,
@@ -239,6 +255,24 @@ SHAPE_MAGNITUDE: dict[str, str] = {"backlash": "k_bl"}
 form it is a shape parameter (fixed, or searched on a grid by the caller) and the coefficient
 identified is another one: backlash's dead-zone half-width b [rad] shapes the column
 backlash_twist(Δ, b) − Δ, whose coefficient k_bl [N·m/rad] is identified (≈ the stiffness)."""
+
+PHYSICAL_SIGN: dict[str, tuple[str, int]] = {"backlash": ("k_bl", 1)}
+"""An effect's identified coefficient and the sign its physics allows: a dead zone takes the
+stiffness away inside its gap, k_bl > 0; a negative k_bl makes the centre stiffer than the rest,
+which no backlash does (a misplaced knee of the compliance curve does)."""
+
+
+def physical_objection(m: LinearModel, theta: np.ndarray) -> str | None:
+    """Why the fit `theta` of `m` is not the physics of its last effect (PHYSICAL_SIGN), or
+    None when it is."""
+    if not m.effects or m.effects[-1] not in PHYSICAL_SIGN:
+        return None
+    name, sign = PHYSICAL_SIGN[m.effects[-1]]
+    value = float(theta[list(m.param_names).index(name)])
+    if value * sign > 0:
+        return None
+    return f"{name} = {value:.3g} has the sign no {m.effects[-1]} has"
+
 
 def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> Term:
     """The effect's term function at unit magnitude, as regressor column(s):

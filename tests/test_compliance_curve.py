@@ -1,0 +1,117 @@
+"""The nominal twist–torque law's compliance curve (estimator.models.with_stiffening with the knees
+of estimator.diagnosis.compliance_knees): a three-slope curve, as a harmonic drive's catalogue
+gives it, is part of the nominal law — its knees are found from the data — while a dead zone
+(backlash) stays outside it, because the knees searched lie beyond the widest dead zone
+searched."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from core.effects import backlash_twist
+from estimator.diagnosis import compliance_knees
+from estimator.diagnosis_options import DiagnosisOptions
+from estimator.least_squares import ols
+from estimator.models import eq5, with_stiffening
+
+K1, K2, K3 = 0.7e7, 1.2e7, 1.7e7       # N·m/rad, the slopes of a harmonic drive's catalogue
+T1, T2 = 15e3, 50e3                     # N·m, the knee torques
+
+
+def three_slope(d: np.ndarray) -> np.ndarray:
+    """T(Δ) of the three-slope curve [N·m]: slope K1 up to T1, K2 up to T2, K3 above."""
+    th1 = T1 / K1
+    th2 = th1 + (T2 - T1) / K2
+    a = np.abs(d)
+    t = np.where(a <= th1, K1 * a,
+                 np.where(a <= th2, T1 + K2 * (a - th1), T2 + K3 * (a - th2)))
+    return np.sign(d) * t
+
+
+def signals(curve, n: int = 6000, seed: int = 0, noise: float = 100.0) -> dict:
+    """Twist swept back and forth over ±9.5 mrad (ramps, as the load schemes do) and the torque
+    `curve(Δ)` + D·Δ̇ + white noise."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 120.0, n)
+    d = 9.5e-3 * np.sin(2 * np.pi * t / 40.0) ** 3
+    dd = np.gradient(d, t)
+    torque = curve(d) + 5e4 * dd + noise * rng.standard_normal(n)
+    return {"t": t, "torsion": d, "torsion_rate": dd, "torque": torque}
+
+
+def test_the_knees_of_a_three_slope_curve_are_found_and_the_curve_is_nominal():
+    sig = signals(three_slope)
+    knees = compliance_knees(sig, DiagnosisOptions())
+    th1 = T1 / K1
+    th2 = th1 + (T2 - T1) / K2
+    top = float(np.quantile(np.abs(sig["torsion"]), 0.99))
+    # the grid's step is 0.05 of the top twist
+    assert abs(knees[0] - th1) <= 0.05 * top and abs(knees[1] - th2) <= 0.05 * top, knees
+    rmse = {}
+    for name, m in (("cubic", with_stiffening(eq5())), ("knees", with_stiffening(eq5(), knees))):
+        f = ols(m.design(sig), m.target(sig))
+        rmse[name] = float(np.sqrt(f.rss / sig["torque"].size))
+    # with its knees the law is near the noise (100 N·m); the cubic alone is not
+    assert rmse["knees"] < 250.0 < rmse["cubic"], rmse
+
+
+def test_a_dead_zone_is_not_taken_into_the_compliance_curve():
+    """Backlash of half-width b = 0.1 mrad on a linear spring: its column still explains most of
+    what the nominal law (with its knees) leaves."""
+    b = 1e-4
+
+    def dead_zone(d):
+        return 1.3e7 * backlash_twist(d, b)
+    sig = signals(dead_zone)
+    m = with_stiffening(eq5(), compliance_knees(sig, DiagnosisOptions()))
+    f0 = ols(m.design(sig), m.target(sig))
+    col = backlash_twist(sig["torsion"], b) - sig["torsion"]
+    f1 = ols(np.column_stack([m.design(sig), col]), m.target(sig))
+    assert f1.rss < 0.2 * f0.rss, (f0.rss, f1.rss)
+
+
+def test_knees_inside_the_dead_zones_searched_are_refused():
+    opt = replace(DiagnosisOptions(), compliance_knee_rel=(0.1, 0.5))
+    with pytest.raises(ValueError, match="backlash_b_rel"):
+        compliance_knees(signals(three_slope), opt)
+
+
+def test_the_curve_is_reported_with_its_knees_and_its_stiffness_changes():
+    sig = signals(three_slope)
+    knees = compliance_knees(sig, DiagnosisOptions())
+    m = with_stiffening(eq5(), knees)
+    assert m.name == "eq5+stiffening"
+    assert list(m.param_names[-3:]) == ["k3", "dk_1", "dk_2"]
+    theta = ols(m.design(sig), m.target(sig)).theta
+    p = dict(zip(m.param_names, theta))
+    # the slope beyond the second knee is K3 (± a grid step's worth of misplacement)
+    assert p["k"] + p["dk_1"] + p["dk_2"] == pytest.approx(K3, rel=0.1)
+    assert with_stiffening(m, knees) is m
+
+
+def test_a_dead_zone_fitted_with_a_stiffer_centre_is_not_backlash():
+    """A transmission whose centre is stiffer than the rest (a softening curve, which the
+    nominal's stiffening knees cannot take): the backlash column fits it with k_bl < 0, a dead
+    zone that adds stiffness inside its gap — no backlash does, so the candidate is never
+    significant; a real dead zone's k_bl > 0 is."""
+    from estimator.diagnosis_candidates import _best_shape, _fit, _score
+
+    def soft(d):
+        return 1.3e7 * d + 0.6e7 * np.clip(d, -1e-3, 1e-3)     # stiffer within ±1 mrad
+
+    def dead(d):
+        return 1.3e7 * backlash_twist(d, 1e-4)
+    opt = DiagnosisOptions()
+    for curve, sign in ((soft, -1), (dead, 1)):
+        tr, te = signals(curve, seed=1), signals(curve, seed=2)
+        tr["run"], te["run"] = np.zeros(tr["t"].size, int), np.ones(te["t"].size, int)
+        m = with_stiffening(eq5(), compliance_knees(tr, opt))
+        models = [({"b": b}, m.with_effect("backlash", b=b)) for b in (2e-4, 5e-4, 1e-3)]
+        f = _best_shape(models, tr, te)
+        k_bl = f.theta[list(f.model.param_names).index("k_bl")]
+        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
+        assert np.sign(k_bl) == sign, k_bl
+        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
