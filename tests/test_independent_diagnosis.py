@@ -41,13 +41,9 @@ FAMILIES = [("stribeck", "lorentz"), ("temperature_friction", "mult_both"),
 
 @pytest.mark.slow
 @pytest.mark.parametrize("variant", [
-    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW,
-    # a known defect found by rig G's blind score (docs/diagnosis.md, "Rig G"): a harmonic
-    # drive's three-segment compliance is named `backlash`. Strict: a fix makes it fail until
-    # the mark is removed.
-    pytest.param(RIG_G_FEW, marks=pytest.mark.xfail(
-        strict=True, reason="rig G's three-segment compliance named backlash (docs/diagnosis.md, "
-                            "Rig G)"))],
+    # rig G: a harmonic drive's three-segment compliance, named `backlash` in its blind score
+    # until the nominal law took the curve's knees (docs/diagnosis.md, "After rig G")
+    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW, RIG_G_FEW],
     ids=lambda v: v.rig)
 def test_nothing_withheld_is_none(variant):
     c = run_cell(variant, 21, None, None, 0.0, "none")
