@@ -209,10 +209,15 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
         shape, m, objection = first
     if "beta" in shape and m.kind != "transmission":
         # the profile RSS over Bouc–Wen shapes has several basins: refine the three best
-        # grid points and keep the best result
+        # grid points and keep the best result (unless only the grid's has its physics' sign)
         tries = [_refined_bouc_wen(*models[i], tr) for _, i in ranked[:3]]
-        shape, m = min(tries, key=lambda sm: ols(sm[1].design(tr), sm[1].target(tr)).rss)
-    return replace(_fit(m, shape, tr, te), objection=objection)
+        fits = [(ols(mm.design(tr), mm.target(tr)), sh, mm) for sh, mm in tries]
+        fits = [f for f in fits if physical_objection(f[2], f[0].theta) is None] or fits
+        r, s2, m2 = min(fits, key=lambda f: f[0].rss)
+        if objection is not None or physical_objection(m2, r.theta) is None:
+            shape, m = s2, m2
+    f = _fit(m, shape, tr, te)
+    return replace(f, objection=physical_objection(f.model, f.theta))
 
 
 def _refined_bouc_wen(shape: dict, m: LinearModel, tr: dict) -> tuple[dict, LinearModel]:

@@ -2,7 +2,8 @@
 of estimator.diagnosis.compliance_knees): a three-slope curve, as a harmonic drive's catalogue
 gives it, is part of the nominal law — its knees are found from the data — while a dead zone
 (backlash) stays outside it, because the knees searched lie beyond the widest dead zone
-searched."""
+searched. And the physical sign of a fitted effect (estimator.models.physical_objection): a dead
+zone that stiffens the centre, or a hysteresis loop run backwards, is never significant."""
 
 from __future__ import annotations
 
@@ -114,4 +115,30 @@ def test_a_dead_zone_fitted_with_a_stiffer_centre_is_not_backlash():
         k_bl = f.theta[list(f.model.param_names).index("k_bl")]
         row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
         assert np.sign(k_bl) == sign, k_bl
+        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+
+
+def test_a_loop_run_backwards_is_not_hysteresis():
+    """A passive hysteretic element dissipates: its torque is higher on loading than on
+    unloading (k_h > 0). A loop the other way round (k_h < 0: what a torque reading whose lag
+    is not all stated draws) is never a significant hysteresis; the same loop the right way
+    round is."""
+    from estimator.diagnosis_candidates import _best_shape, _fit, _score
+    opt = DiagnosisOptions()
+    for sign in (-1, 1):
+        def curve(d, sign=sign):
+            return 1.3e7 * d
+        tr, te = signals(curve, seed=3), signals(curve, seed=4)
+        for s in (tr, te):
+            # a loop of ±3 kN·m that switches with the twist's direction over ~0.2 mrad
+            s["torque"] = s["torque"] + sign * 3e3 * np.tanh(s["torsion_rate"] / 2e-5)
+            s["run"] = np.zeros(s["t"].size, int) + (s is te)
+        m = with_stiffening(eq5(), compliance_knees(tr, opt))
+        models = [({"alpha": 1.0, "beta": b, "gamma": b, "n": 1},
+                   m.with_effect("hysteresis", alpha=1.0, beta=b, gamma=b, n=1))
+                  for b in (2e3, 5e3, 1e4)]
+        f = _best_shape(models, tr, te)
+        k_h = f.theta[list(f.model.param_names).index("k_h")]
+        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
+        assert np.sign(k_h) == sign, k_h
         assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
