@@ -1,9 +1,10 @@
 """The gap diagnosis on campaigns of the independently written validation rigs, which it was never
 tuned on (commands.independent_harness): nothing withheld gives `none`, one form of each effect
 family at ENR 2 is named first on the law it acts on, an effect outside the vocabulary is not
-explained — on the two-inertia and planned-motion rigs, rigs B, C, F and G (rigs F's and G's
-after their blind scores); rig E's stiffening transmission and intermediate-stage ripple. Fixed seeds (21, 22),
-chosen before these campaigns were ever diagnosed (rig E's nominal: its blind seed, 801)."""
+explained — on the two-inertia and planned-motion rigs, rigs B, C, F, G and H (rigs F's, G's
+and H's after their blind scores); rig E's stiffening transmission and intermediate-stage
+ripple. Fixed seeds (21, 22), chosen before these campaigns were ever diagnosed (rig E's
+nominal: its blind seed, 801)."""
 
 from __future__ import annotations
 
@@ -30,6 +31,10 @@ RIG_G_FEW = Variant("rig G 40 Hz, 0.005°, 20 ms lag, 4+2 runs", "rig_g",
                     {"sample_rate_hz": 40.0, "encoder_res_deg": 0.005, "torque_lag_s": 0.02},
                     few_runs=True)
 
+RIG_H_FEW = Variant("rig H 20 Hz, 0.02°, 5 ms lag, 4+2 runs", "rig_h",
+                    {"sample_rate_hz": 20.0, "encoder_res_deg": 0.02, "torque_noise": 150.0,
+                     "torque_lag_s": 0.005}, few_runs=True)
+
 RIG_C_200 = Variant("rig C 200 Hz, 10 ms lag", "rig_c",
                     {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_lag_s": 0.01})
 
@@ -43,7 +48,9 @@ FAMILIES = [("stribeck", "lorentz"), ("temperature_friction", "mult_both"),
 @pytest.mark.parametrize("variant", [
     # rig G: a harmonic drive's three-segment compliance, named `backlash` in its blind score
     # until the nominal law took the curve's knees (docs/diagnosis.md, "After rig G")
-    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW, RIG_G_FEW],
+    # rig H: its torque chain's unstated phase draws a loop run backwards (k_h < 0), named
+    # `hysteresis` in its blind score until hysteresis had to be passive
+    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_F_FEW, RIG_G_FEW, RIG_H_FEW],
     ids=lambda v: v.rig)
 def test_nothing_withheld_is_none(variant):
     c = run_cell(variant, 21, None, None, 0.0, "none")
@@ -86,14 +93,23 @@ def test_each_family_of_rig_c_is_named_first_on_its_law(effect):
                                             (RIG_B, "second_resonance"),
                                             (RIG_C_FEW, "periodic_disturbance"),
                                             (RIG_F_FEW, "periodic_disturbance"),
-                                            (RIG_G_FEW, "periodic_disturbance")],
+                                            (RIG_G_FEW, "periodic_disturbance"),
+                                            (RIG_H_FEW, "periodic_disturbance")],
                          ids=["two_inertia", "planned_motion", "rig_b", "rig_c", "rig_f",
-                              "rig_g"])
+                              "rig_g", "rig_h"])
 def test_an_effect_outside_the_vocabulary_is_not_explained(variant, effect):
     from commands.independent_harness import rig_module
     mod = rig_module(variant.rig)
     c = run_cell(variant, 21, effect, mod.EFFECT_FORMS[effect][0], 2.0, "oov")
     assert c["status"] in ("unexplained", "partly_explained"), c
+
+
+@pytest.mark.slow
+def test_a_passive_hysteresis_is_still_named_on_rig_h():
+    """The sign rule that keeps rig H's backwards loop out (k_h > 0) keeps a real one in: its
+    Bouc–Wen transmission hysteresis at ENR 2, 20 Hz, 0.02° encoder, 4 + 2 runs."""
+    c = run_cell(RIG_H_FEW, 22, "hysteresis", "bouc_wen_n1", 2.0, "single")
+    assert c["named_first"] == "hysteresis" and c["status"] == "explained", c
 
 
 def _cell(kind, effect, form, enr, status, effects, first, extra=(), shr=((0.3, 0.32),)):
