@@ -190,30 +190,31 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
         # with more columns (torque_offset's settling term) must earn them across runs
         e = leave_one_group_out(m.design(tr), m.target(tr), tr["run"])
         return float(e @ e)
+    fitted: dict[int, OLSResult] = {}
+
+    def fit_of(i: int) -> OLSResult:
+        if i not in fitted:
+            _, mm = models[i]
+            fitted[i] = ols(mm.design(tr), mm.target(tr))
+        return fitted[i]
     cols = {len(m.param_names) for _, m in models}
     if len(cols) > 1 and np.unique(tr["run"]).size > 1:
         ranked = sorted((loro(m), i) for i, (_, m) in enumerate(models))
     else:
-        ranked = sorted(((ols(m.design(tr), m.target(tr)).rss, i) for i, (_, m) in
-                         enumerate(models)))
+        ranked = sorted((fit_of(i).rss, i) for i in range(len(models)))
     # the best shape whose fitted effect has its physics' sign (a dead zone that stiffens the
     # centre is no backlash); none: the best one, with its objection
-    first = None
-    for _, i in ranked:
-        shape, m = models[i]
-        objection = physical_objection(m, ols(m.design(tr), m.target(tr)).theta)
-        first = first or (shape, m, objection)
-        if objection is None:
-            break
-    else:
-        shape, m, objection = first
+    pick = next((i for _, i in ranked
+                 if physical_objection(models[i][1], fit_of(i).theta) is None), ranked[0][1])
+    shape, m = models[pick]
+    objection = physical_objection(m, fit_of(pick).theta)
     if "beta" in shape and m.kind != "transmission":
         # the profile RSS over Bouc–Wen shapes has several basins: refine the three best
         # grid points and keep the best result (unless only the grid's has its physics' sign)
         tries = [_refined_bouc_wen(*models[i], tr) for _, i in ranked[:3]]
-        fits = [(ols(mm.design(tr), mm.target(tr)), sh, mm) for sh, mm in tries]
-        fits = [f for f in fits if physical_objection(f[2], f[0].theta) is None] or fits
-        r, s2, m2 = min(fits, key=lambda f: f[0].rss)
+        refined = [(ols(mm.design(tr), mm.target(tr)), sh, mm) for sh, mm in tries]
+        r, s2, m2 = min(refined, key=lambda f: (physical_objection(f[2], f[0].theta) is not None,
+                                                 f[0].rss))
         if objection is not None or physical_objection(m2, r.theta) is None:
             shape, m = s2, m2
     f = _fit(m, shape, tr, te)

@@ -137,10 +137,11 @@ def eq5(offset: bool = True) -> LinearModel:
 
 def knee_column(knee: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]:
     """The column of a stiffness change beyond the twist `knee` [rad]:
-    sgn(Δ)·max(|Δ| − knee, 0) (zero inside ±knee, slope 1 beyond)."""
+    sgn(Δ)·max(|Δ| − knee, 0) (zero inside ±knee, slope 1 beyond) — the twist through a dead
+    zone of that half-width (core.effects.backlash_twist), which is why the knees searched lie
+    beyond the dead zones searched."""
     def col(s: Mapping[str, np.ndarray]) -> np.ndarray:
-        d = np.asarray(s["torsion"], dtype=float)
-        return np.sign(d) * np.maximum(np.abs(d) - knee, 0.0)
+        return fx.backlash_twist(np.asarray(s["torsion"], dtype=float), knee)
     return col
 
 

@@ -125,10 +125,10 @@ def test_a_loop_run_backwards_is_not_hysteresis():
     round is."""
     from estimator.diagnosis_candidates import _best_shape, _fit, _score
     opt = DiagnosisOptions()
+    def spring(d):
+        return 1.3e7 * d
     for sign in (-1, 1):
-        def curve(d, sign=sign):
-            return 1.3e7 * d
-        tr, te = signals(curve, seed=3), signals(curve, seed=4)
+        tr, te = signals(spring, seed=3), signals(spring, seed=4)
         for s in (tr, te):
             # a loop of ±3 kN·m that switches with the twist's direction over ~0.2 mrad
             s["torque"] = s["torque"] + sign * 3e3 * np.tanh(s["torsion_rate"] / 2e-5)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from commands.independent_harness import Variant, run_cell
+from commands.independent_harness import VARIANTS, Variant, run_cell
 
 TWO_INERTIA = Variant("two-inertia 20 Hz", "two_inertia",
                       {"sample_rate_hz": 20.0, "encoder_res_deg": 0.01})
@@ -27,13 +27,9 @@ RIG_F_FEW = Variant("rig F 20 Hz, 0.001°, 10 ms lag, 4+2 runs", "rig_f",
                     {"sample_rate_hz": 20.0, "encoder_res_deg": 0.001, "torque_noise": 100.0,
                      "torque_lag_s": 0.01}, few_runs=True)
 
-RIG_G_FEW = Variant("rig G 40 Hz, 0.005°, 20 ms lag, 4+2 runs", "rig_g",
-                    {"sample_rate_hz": 40.0, "encoder_res_deg": 0.005, "torque_lag_s": 0.02},
-                    few_runs=True)
+RIG_G_FEW = next(v for v in VARIANTS if v.rig == "rig_g" and v.few_runs)
 
-RIG_H_FEW = Variant("rig H 20 Hz, 0.02°, 5 ms lag, 4+2 runs", "rig_h",
-                    {"sample_rate_hz": 20.0, "encoder_res_deg": 0.02, "torque_noise": 150.0,
-                     "torque_lag_s": 0.005}, few_runs=True)
+RIG_H_FEW = next(v for v in VARIANTS if v.rig == "rig_h" and v.few_runs)
 
 RIG_C_200 = Variant("rig C 200 Hz, 10 ms lag", "rig_c",
                     {"sample_rate_hz": 200.0, "encoder_res_deg": 0.002, "torque_lag_s": 0.01})
