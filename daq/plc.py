@@ -2,7 +2,8 @@
 
 - Bounded behaviour, never pymodbus' defaults: timeout 0.5–1 s, retries 0–1, reconnect
   back-off capped at 1–5 s (daq.settings validates them). The client reconnects by itself;
-  while the link is down calls fail fast with `PlcLinkError`.
+  while the link is down calls fail fast with `PlcLinkError`. Every request is also bounded
+  here (`request_bound`), so a library that never answers cannot stall a caller.
 - The Modbus request limits are enforced here (the client would send over-long writes):
   reads are split into requests of ≤ 125 registers, writes into ≤ 123.
 - Decoding and scaling come from core/plc_map.py; the status block is read in one request.
@@ -85,6 +86,15 @@ class PlcClient:
         self.heartbeat = int(self.map.command.decode(self.command_regs)[self.map.heartbeat])
 
     @property
+    def request_bound(self) -> float:
+        """The longest one request may take [s], whatever the Modbus library does: every try
+        (1 + retries) at `plc_timeout`, plus one more `plc_timeout` for a reconnect. A request
+        that outlives it is a link failure, so no caller (the heartbeat, the poll) can wait
+        forever."""
+        s = self.settings
+        return s.plc_timeout * (s.plc_retries + 2)
+
+    @property
     def connected(self) -> bool:
         return self.client is not None and bool(self.client.connected)
 
@@ -128,10 +138,14 @@ class PlcClient:
         while awaiting) become PlcLinkError, Modbus exception responses PlcError."""
         self.requests += 1
         try:
-            rr = await getattr(self._c(), method)(*args, **kwargs)
+            rr = await asyncio.wait_for(getattr(self._c(), method)(*args, **kwargs),
+                                        self.request_bound)
         except ModbusException as exc:  # ConnectionException, ModbusIOException (timeout)
             self.link_errors += 1
             raise PlcLinkError(f"{what}: {exc}") from exc
+        except asyncio.TimeoutError as exc:  # the library's own timeout did not fire
+            self.link_errors += 1
+            raise PlcLinkError(f"{what}: no answer within {self.request_bound:.2f} s") from exc
         if rr.isError():
             code = getattr(rr, "exception_code", None)
             raise PlcError(f"{what}: Modbus exception {code}", code)

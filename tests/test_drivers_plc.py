@@ -202,6 +202,38 @@ def test_client_enforces_modbus_request_limits():
     assert rec.writes == [(2000, 123), (2123, 123), (2246, 4)]
 
 
+class SilentClient:
+    """A Modbus client whose requests never complete (a library that lost its own timeout)."""
+
+    async def read_holding_registers(self, address, count, device_id):
+        await asyncio.sleep(3600.0)
+
+    async def write_registers(self, address, values, device_id):
+        await asyncio.sleep(3600.0)
+
+
+def test_a_request_the_library_never_answers_is_a_link_error_within_its_bound():
+    from daq.plc import PlcLinkError
+    from daq.rig import _cancel_all
+    c = PlcClient(Settings(plc_timeout=0.5, plc_retries=1))
+    c.client = SilentClient()
+    assert c.request_bound == pytest.approx(1.5)
+
+    async def body():
+        loop = asyncio.get_running_loop()
+        for call in (c.read_status(), c.beat()):
+            t0 = loop.time()
+            with pytest.raises(PlcLinkError, match="no answer within 1.50 s"):
+                await call
+            assert loop.time() - t0 < 3.0
+        # and the heartbeat loop survives it: it keeps trying, and stops when cancelled
+        hb = asyncio.create_task(c.heartbeat_loop(0.05))
+        await asyncio.sleep(3.2)
+        assert not await _cancel_all([hb], timeout=2.0)
+    asyncio.run(body())
+    assert c.link_errors >= 3 and c.requests >= 4
+
+
 def raw_request(port, pdu, unit=1, tid=7):
     with socket.create_connection(("127.0.0.1", port), timeout=2.0) as s:
         s.sendall(struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu)

@@ -18,6 +18,9 @@ from core import drive_od as D
 from daq.settings import Settings
 from simulators.drives import FAULT_INJECTION
 
+# each test takes seconds; a stalled protocol exchange fails here, not after the suite's 25 min
+pytestmark = pytest.mark.timeout(180)
+
 
 @pytest.fixture
 def standin():
@@ -44,7 +47,11 @@ def test_drives_enabled_tpdos_at_rate_and_can_logger_records(standin, tmp_path):
             async with rig.session():
                 assert [d.state for d in rig.drives.drives] == ["OPERATION ENABLED"] * 3
                 await rig.set_motor_speed(100.0)
-                await asyncio.sleep(2.5)
+                # 2000 samples a drive: 2 s at the configured 1 kHz; a loaded host may slow the
+                # stand-in (never lose samples), so wait for the count, not for a wall time
+                assert await await_for(
+                    lambda: all(len(d.stream) > 2000 for d in rig.drives.drives), timeout=20.0)
+                await asyncio.sleep(0.1)
                 rig_time_now = rig.plc["rig_time"][-1]
                 for d in rig.drives.drives:
                     st = d.stream
@@ -56,9 +63,8 @@ def test_drives_enabled_tpdos_at_rate_and_can_logger_records(standin, tmp_path):
                     assert len(stamps) > 2000
                     # drive clock and PLC clock are the same rig clock
                     assert abs(stamps[-1] - rig_time_now * 1e3) < 300
-                    # and on the wall clock (time scale 1) — loosely: a loaded machine may
-                    # slow the stand-in, never lose samples
-                    assert (len(t) - 1) / (t[-1] - t[0]) > 700.0
+                    # the host's receive stamps run forwards (their rate is the host's load:
+                    # bench/, not a test)
                     assert all(b >= a for a, b in zip(t, t[1:]))
                     assert st.w[-1] == pytest.approx(100.0, rel=0.05)
                     assert 15.0 < d.temperature < 40.0
@@ -119,9 +125,11 @@ def test_lost_heartbeat_continue_on_two_then_safe_on_the_second(standin):
             assert rig.events_of("degraded")[0].data["active"] == [1, 3]
             # the joint continues on motors 1 and 3: their streams go on at speed
             n1, n3 = len(rig.drives.drives[0].stream), len(rig.drives.drives[2].stream)
-            await asyncio.sleep(1.0)
-            for d, n in ((rig.drives.drives[0], n1), (rig.drives.drives[2], n3)):
-                assert len(d.stream) - n > 900 and d.stream.lost == 0
+            # 900 more samples each (0.9 s at 1 kHz; a loaded host may slow the stand-in)
+            assert await await_for(lambda: len(rig.drives.drives[0].stream) - n1 > 900
+                                   and len(rig.drives.drives[2].stream) - n3 > 900, timeout=10.0)
+            for d in (rig.drives.drives[0], rig.drives.drives[2]):
+                assert d.stream.lost == 0
                 assert d.stream.w[-1] == pytest.approx(100.0, rel=0.05)
             # and so does the joint: the output turns at the motor speed over the reduction
             assert rig.last_status["qd"] == pytest.approx(100.0 / 11000.0, rel=0.1)
