@@ -563,9 +563,9 @@ class Engine:
             return None
         tr = trips[0]
         reason = f"interlock {tr.name}: {tr.message}"
-        if tr.name == "plc_fault":  # was the service starved? (see PlcClient.max_beat_gap)
+        if tr.name == "plc_fault":  # was the service starved? (PlcClient.longest_beat_gap)
             reason += (f" (longest gap between the service's heartbeats: "
-                       f"{self.rig.plc_client.max_beat_gap:.2f} s)")
+                       f"{self.rig.plc_client.longest_beat_gap():.2f} s)")
         return reason
 
     # --- reporting ------------------------------------------------------------------------------

@@ -85,6 +85,14 @@ class PlcClient:
                                                       self.map.command.count)
         self.heartbeat = int(self.map.command.decode(self.command_regs)[self.map.heartbeat])
 
+    def longest_beat_gap(self) -> float:
+        """The longest time [s] without an acknowledged heartbeat change so far, the gap still
+        open included: a service that was wedged and has not beaten since (its first poll after
+        the wedge reads the PLC's trip) shows the wedge here, not only after its next beat."""
+        if self.last_beat is None:
+            return self.max_beat_gap
+        return max(self.max_beat_gap, time.monotonic() - self.last_beat)
+
     @property
     def request_bound(self) -> float:
         """The longest one request may take [s], whatever the Modbus library does: every try

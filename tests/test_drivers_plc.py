@@ -289,3 +289,16 @@ def test_garbage_streams_do_not_crash_the_server():
         ok = await loop.run_in_executor(None, raw_request, port, struct.pack(">BHH", 3, 0, 2))
         assert ok[7] == 3
     run_with_server(body)
+
+
+def test_the_longest_heartbeat_gap_counts_the_gap_still_open():
+    """A wedged service whose first poll after the wedge reads the PLC's trip has not beaten
+    since: the gap it reports is the open one, not the short ones acknowledged before it."""
+    import time
+    c = PlcClient(Settings())
+    assert c.longest_beat_gap() == 0.0                      # never beaten: nothing to say
+    c.max_beat_gap, c.last_beat = 0.12, time.monotonic() - 1.5
+    assert 1.5 <= c.longest_beat_gap() < 2.5
+    c.last_beat = time.monotonic()                          # it beat again: the record holds
+    c.max_beat_gap = 1.6
+    assert c.longest_beat_gap() == pytest.approx(1.6, abs=0.05)
