@@ -18,7 +18,7 @@ from core import drive_od as D
 from daq.settings import Settings
 from simulators.drives import FAULT_INJECTION
 
-# each test takes seconds; a stalled protocol exchange fails here, not after the suite's 25 min
+# each test takes seconds; a stalled protocol exchange fails after 3 min, not the suite's 15
 pytestmark = pytest.mark.timeout(180)
 
 

@@ -21,7 +21,7 @@ from core import drive_od as D
 from core.plc_map import REGISTER_MAP
 from daq.settings import Settings
 
-# each test takes seconds; a stalled protocol exchange fails here, not after the suite's 25 min
+# each test takes seconds; a stalled protocol exchange fails after 3 min, not the suite's 15
 pytestmark = pytest.mark.timeout(180)
 
 CB = REGISTER_MAP.signals["command_bits"]
