@@ -363,11 +363,41 @@ def transient_mask(sig: dict, window_s: float) -> np.ndarray:
     return out
 
 
+def advanced(y: np.ndarray, t: np.ndarray, lag_s: float) -> np.ndarray:
+    """y read lag_s [s] earlier: y(t + lag_s) at the samples t; the last lag's samples are NaN.
+    On a uniformly sampled channel with every sample finite the shift is band-limited (the
+    spectrum of y's even extension turned by e^{iω·lag_s}): an all-pass, so white sensor noise
+    stays white at the sd its sheet states. Linear interpolation would not: a shift by a
+    fraction f of the sample period leaves √((1 − f)² + f²) of the noise sd, correlated between
+    neighbours, and the sensor floor (sensor_floor) would then stand above the true noise.
+    Otherwise (jittered stamps, missing samples) linear interpolation over the finite ones."""
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    ok = np.isfinite(y)
+    dt = np.diff(t)
+    uniform = n >= 4 and ok.all() and float(np.ptp(dt)) <= 1e-6 * float(np.median(dt))
+    if not uniform:
+        return np.interp(t + lag_s, t[ok], y[ok], right=np.nan)
+    shift = lag_s / float(np.median(dt))                 # in samples
+    # the line through the end samples is shifted exactly; what is left is zero at both ends
+    # and extended odd about them, so the periodic signal the FFT sees has no jump and no kink
+    ramp = y[0] + (y[-1] - y[0]) * np.arange(n) / (n - 1)
+    z = y - ramp
+    ext = np.concatenate([z, -z[-2:0:-1]])
+    turn = np.exp(2j * np.pi * np.fft.rfftfreq(ext.size) * shift)
+    if ext.size % 2 == 0:
+        turn[-1] = np.cos(np.pi * shift)                 # the Nyquist bin stays real
+    out = np.fft.irfft(np.fft.rfft(ext) * turn, ext.size)[:n]
+    out += ramp + (y[-1] - y[0]) / (n - 1) * shift
+    out[max(n - int(np.ceil(shift - 1e-9)), 0):] = np.nan
+    return out
+
+
 def lag_corrected(run: RunData) -> RunData:
     """The run with every channel whose sensor the metadata says lags (`sensors[ch].lag_s`,
-    docs/run-format.md) moved back by that lag (linear interpolation; the last lag's samples
-    become missing): a known fieldbus latency is a property of the sensor, not a gap of the
-    model. The run itself is left alone."""
+    docs/run-format.md) moved back by that lag (`advanced`; the last lag's samples become
+    missing): a known fieldbus latency or filter delay is a property of the sensor, not a gap
+    of the model. The run itself is left alone."""
     sensors = run.meta.get("sensors") if isinstance(run.meta, dict) else None
     lags = {ch: float(spec.get("lag_s", 0.0)) for ch, spec in (sensors or {}).items()
             if isinstance(spec, dict) and ch in run.samples.columns and ch != "t"}
@@ -377,9 +407,7 @@ def lag_corrected(run: RunData) -> RunData:
     df = run.samples.copy()
     t = run.t
     for ch, d in lags.items():
-        y = df[ch].to_numpy(dtype=float)
-        ok = np.isfinite(y)
-        df[ch] = np.interp(t + d, t[ok], y[ok], right=np.nan)
+        df[ch] = advanced(df[ch].to_numpy(dtype=float), t, d)
     meta = dict(run.meta)
     meta["sensors"] = {ch: ({**spec, "lag_s": 0.0} if ch in lags else spec)
                        for ch, spec in sensors.items()}

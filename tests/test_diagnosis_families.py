@@ -129,6 +129,30 @@ def test_combined_status_never_reads_as_a_cause_when_structure_remains():
     assert combined_status(["unexplained", "none"]) == "unexplained"
 
 
+def test_a_lag_taken_out_leaves_the_noise_at_the_sd_its_sheet_states():
+    """A shift by a fraction of the sample period must not filter the noise: linear
+    interpolation at 0.4 of a period keeps 0.72 of a white noise's sd (and correlates
+    neighbours), so the stated sd would floor the law above its true noise."""
+    from estimator.diagnosis import advanced
+    rng = np.random.default_rng(3)
+    t = np.arange(100_000) * 0.01
+    noise = rng.normal(0.0, 1.0, t.size)
+    out = advanced(noise, t, 0.004)
+    ok = np.isfinite(out)
+    assert (~ok).sum() == 1                          # the last lag's sample is missing
+    assert np.std(out[ok]) == pytest.approx(1.0, abs=0.01)
+    assert abs(np.corrcoef(out[ok][1:], out[ok][:-1])[0, 1]) < 0.02
+    slow = 3.0 * np.exp(-t / 50.0) + 0.2 * t + np.sin(0.3 * t)      # a slow signal, not periodic
+    shifted = advanced(slow, t, 0.0237)
+    ok = np.isfinite(shifted)
+    assert (~ok).sum() == 3
+    assert np.max(np.abs(shifted[ok] - (3.0 * np.exp(-(t[ok] + 0.0237) / 50.0)
+                                         + 0.2 * (t[ok] + 0.0237) + np.sin(0.3 * (t[ok] + 0.0237)))
+                         )) < 1e-4
+    jitter = t + rng.uniform(-1e-4, 1e-4, t.size)    # jittered stamps: linear interpolation
+    assert np.isfinite(advanced(slow, jitter, 0.0237)[:-3]).all()
+
+
 def test_a_known_sensor_lag_is_taken_out_before_the_diagnosis():
     from estimator.diagnosis import lag_corrected
     t = np.arange(0, 10, 0.01)
