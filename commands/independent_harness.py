@@ -94,6 +94,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig H 20 Hz, 0.02° encoder, 5 ms torque lag, 4+2 runs", "rig_h",
             {"sample_rate_hz": 20.0, "encoder_res_deg": 0.02, "torque_noise": 150.0,
              "torque_lag_s": 0.005}, few_runs=True),
+    Variant("rig I 500 Hz, 0.005° encoder, 8 ms torque lag", "rig_i",
+            {"sample_rate_hz": 500.0, "encoder_res_deg": 0.005, "torque_noise": 250.0,
+             "torque_lag_s": 0.008}),
+    Variant("rig I 25 Hz, 0.002° encoder, 4+2 runs", "rig_i",
+            {"sample_rate_hz": 25.0, "encoder_res_deg": 0.002, "torque_noise": 120.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
