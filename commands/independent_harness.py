@@ -20,7 +20,10 @@ Effect-to-noise ratio (ENR): the injected form is scaled linearly so that the RM
 campaign of its contribution — the change of the measured T − τ_L for output-side and sensor
 effects, of k·Δ (the twist through the rig's stiffness, fitted on its no-effect truth) for
 transmission effects, between the same-seed runs with and without it — divided by the noise of
-that law (√(σ_T² + σ_L²), resp. √(σ_T² + (k·step_q)²/12)) is the requested value.
+that law (√(σ_T² + σ_L²), resp. √(σ_T² + (k·step_q)²/12)) is the requested value. An effect the
+vocabulary places on two laws (gear ripple: a torque on the output, or an angle error inside
+the transmission) is measured on the law where it shows more, the larger of the two ratios: it
+counts as named when it comes first on either law.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ import numpy as np
 from commands.diagnosis_harness import NOT_EXPLAINED
 from core.effects import VOCABULARY
 
-TRANSMISSION_EFFECTS = ("backlash", "hysteresis")
+TRANSMISSION_EFFECTS = tuple(n for n, e in VOCABULARY.items() if e.acts_on == "transmission")
 
 
 @dataclass(frozen=True)
@@ -152,21 +155,28 @@ def contribution_enr(variant: Variant, seed: int, effect: str, form: str,
     with_raw = simulate_campaign(variant, seed, {effect: {"form": form, "scale": 1.0}})[2]
     spec = base_raw[0].meta["sensors"]
     sig_t = float(spec["torque"]["noise_sd"])
-    if effect in TRANSMISSION_EFFECTS:
+
+    def ratio(d: np.ndarray, noise: float) -> float:
+        d = d[np.isfinite(d)]
+        return float(np.sqrt(np.mean(d ** 2)) / noise) if d.size else 0.0
+
+    laws = ((VOCABULARY[effect].acts_on, *VOCABULARY[effect].also_on)
+            if effect in VOCABULARY else ("output",))
+    out = []
+    if "transmission" in laws:
         k = _stiffness(base_raw)
         d = np.concatenate([k * (w.truth["twist"].to_numpy() - b.truth["twist"].to_numpy())
                             for w, b in zip(with_raw, base_raw)])
         step = float(spec["q"].get("resolution", 0.0))
-        noise = np.sqrt(sig_t ** 2 + (k * step) ** 2 / 12.0)
-    else:
+        out.append(ratio(d, np.sqrt(sig_t ** 2 + (k * step) ** 2 / 12.0)))
+    if laws != ("transmission",):
         def target(r):
             s = r.samples
             return s["torque"].to_numpy() - s["torque_load"].to_numpy()
         d = np.concatenate([target(w) - target(b) for w, b in zip(with_raw, base_raw)])
         sig_l = float(spec.get("torque_load", {}).get("noise_sd", 0.0))
-        noise = np.sqrt(sig_t ** 2 + sig_l ** 2)
-    d = d[np.isfinite(d)]
-    return float(np.sqrt(np.mean(d ** 2)) / noise) if d.size else 0.0
+        out.append(ratio(d, np.sqrt(sig_t ** 2 + sig_l ** 2)))
+    return max(out)
 
 
 def _law_effects(rep: dict) -> dict[str, list[str]]:

@@ -228,3 +228,29 @@ def test_validate_diagnosis_rig_selects_the_variants_and_refuses_an_unknown_rig(
     err = capsys.readouterr().err
     assert "rig_x" in err and "rig_d" in err and len(err.strip().splitlines()) == 1
     assert main(["validate-diagnosis", "--rig", "rig_d"]) == 2      # needs --independent
+
+
+@pytest.mark.slow
+def test_a_two_law_effect_is_scaled_on_the_law_where_it_shows():
+    """A gear ripple that is an angle error inside the transmission barely moves T − τ_L; its
+    ENR is the twist law's (k·Δ against that law's noise), so ENR 1 asks for a ripple of the
+    size that law sees, not one many times the data sheet's."""
+    import numpy as np
+    from commands.independent_harness import _stiffness, contribution_enr, simulate_campaign
+    base = simulate_campaign(RIG_H_FEW, 5)[2]
+    kinematic = simulate_campaign(RIG_H_FEW, 5, {"gear_ripple": {
+        "form": "output_kinematic_error", "scale": 1.0}})[2]
+    spec = base[0].meta["sensors"]
+    sig_t, sig_l = spec["torque"]["noise_sd"], spec["torque_load"]["noise_sd"]
+    out = np.concatenate([(w.samples["torque"] - w.samples["torque_load"]
+                           - b.samples["torque"] + b.samples["torque_load"]).to_numpy()
+                          for w, b in zip(kinematic, base)])
+    k = _stiffness(base)
+    tw = np.concatenate([k * (w.truth["twist"] - b.truth["twist"]).to_numpy()
+                         for w, b in zip(kinematic, base)])
+    on_output = np.sqrt(np.mean(out ** 2)) / np.hypot(sig_t, sig_l)
+    on_twist = np.sqrt(np.mean(tw ** 2)) / np.sqrt(sig_t ** 2
+                                                  + (k * spec["q"]["resolution"]) ** 2 / 12)
+    enr = contribution_enr(RIG_H_FEW, 5, "gear_ripple", "output_kinematic_error", base)
+    assert on_twist > 5 * on_output
+    assert enr == pytest.approx(on_twist, rel=1e-9)
