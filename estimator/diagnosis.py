@@ -64,6 +64,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Mapping, Sequence
 
 import numpy as np
+from scipy import signal
 
 from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
@@ -212,11 +213,10 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
     """The mean square the law's residual must keep from the sensors alone, from what the runs
     say of them (metadata `sensors`, docs/run-format.md), or None when a run says nothing: the
     noise variance of each torque channel the law's target reads (the joint torque, and the
-    load cell for the output balance T − τ_L), plus for a twist–torque law each encoder's
-    quantisation seen through the fitted stiffness, (k·step)²/12 per encoder (k the law's
-    elastic stiffness k_u or k). The quantisation error of a slowly moving encoder is not
-    white, so the first-difference floor misses it; it is the floor a twist–torque law cannot
-    go below."""
+    load cell for the output balance T − τ_L) times the share of its band the low-pass keeps,
+    plus for a twist–torque law the encoders' quantisation as the law sees it
+    (`quantisation_floor`). The quantisation error of a slowly moving encoder is not white, so
+    the first-difference floor misses it; it is the floor a twist–torque law cannot go below."""
     total = []
     for run in runs:
         sensors = run.meta.get("sensors")
@@ -224,7 +224,7 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
             return None
         # white noise keeps the share of its band the low-pass before decimation lets through
         fs = float(run.meta.get("sample_rate_hz") or 0.0)
-        kept, cutoff = 1.0, None
+        kept = 1.0
         if prep is not None and fs > 0:
             cutoff = prep.cutoff_hz or (0.4 * fs / prep.decimate if prep.decimate > 1 else None)
             if cutoff is not None and (prep.filter_outputs or prep.decimate > 1):
@@ -232,19 +232,62 @@ def sensor_floor(runs: Sequence[RunData], model: LinearModel, params: dict[str, 
         ms = kept * sum(float((sensors.get(ch) or {}).get("noise_sd", 0.0)) ** 2
                         for ch in ("torque", "torque_load") if ch in model.target_requires)
         if model.kind == "transmission":
-            k = abs(float(params.get("k_u", params.get("k", 0.0))))
-            # an encoder crossing many steps within the low-pass window averages its rounding
-            # error out; one that creeps keeps it whole
-            speed = (float(np.nanmedian(np.abs(run.channel("qd"))))
-                     if "qd" in run.samples.columns else 0.0)
-            window = 1.0 / (2.0 * cutoff) if kept < 1.0 and cutoff else 0.0
-            for ch in ("q", "u"):
-                step = float((sensors.get(ch) or {}).get("resolution", 0.0))
-                if step > 0:
-                    crossed = speed * window / step
-                    ms += (k * step) ** 2 / 12.0 * min(1.0, 1.0 / crossed if crossed > 0 else 1.0)
+            ms += quantisation_floor(run, model, params, prep or PrepOptions())
         total.append(ms)
     return float(np.mean(total)) if total else None
+
+
+QUANTISATION_OFFSETS = 8
+"""Grid offsets averaged over in quantisation_floor (where the true angle sits between two
+steps is unknown)."""
+
+
+def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float],
+                       prep: PrepOptions) -> float:
+    """Mean square that the output and motor encoders' steps (`sensors[q|u].resolution`) leave
+    in a twist–torque law, by surrogate: the run's angles smoothed (a zero-phase low-pass at a
+    tenth of the sample rate, at most 2 Hz, which removes the staircase), quantised again on a
+    grid shifted by a known fraction of a step, prepared as the law prepares the run (filter,
+    decimation) and passed through the fitted law (`params`): the mean square change of its
+    prediction against the smooth angles, averaged over QUANTISATION_OFFSETS shifts. So the
+    floor follows what the law does with a step — a stiffening curve's local slope, the damping
+    of the twist rate, the low-pass that averages the error of an encoder crossing many steps
+    and keeps that of one creeping or at rest. 0 when no encoder states its step or the run
+    records the twist itself (`torsion`)."""
+    sensors = run.meta.get("sensors") or {}
+    cols = run.samples.columns
+    steps = {ch: float((sensors.get(ch) or {}).get("resolution", 0.0)) for ch in ("q", "u")}
+    steps = {ch: st for ch, st in steps.items() if st > 0 and ch in cols}
+    if not steps or "torsion" in cols or not {"q", "u"} <= set(cols):
+        return 0.0
+    t = run.t
+    fs = float(run.meta.get("sample_rate_hz") or 1.0 / np.median(np.diff(t)))
+    need = list(dict.fromkeys(model.requires))
+    theta = np.array([float(params.get(n, 0.0)) for n in model.param_names])
+    sos = signal.butter(2, min(2.0, 0.1 * fs), fs=fs, output="sos")
+    smooth = {}
+    for ch in steps:
+        y = run.channel(ch)
+        ok = np.isfinite(y)
+        filled = np.interp(t, t[ok], y[ok]) if ok.any() else y
+        smooth[ch] = signal.sosfiltfilt(sos, filled)
+    base = run.samples.copy()
+    for ch in steps:
+        base[ch] = np.where(np.isfinite(run.channel(ch)), smooth[ch], np.nan)
+    try:
+        ref = model.predict(prepare(RunData(base, run.meta), need, prep), theta)
+    except (KeyError, ValueError):
+        return 0.0
+    ms = []
+    for j in range(QUANTISATION_OFFSETS):
+        shifted = base.copy()
+        for ch, st in steps.items():
+            o = st * (j + 0.5) / QUANTISATION_OFFSETS
+            shifted[ch] = np.round((base[ch].to_numpy() + o) / st) * st - o
+        pred = model.predict(prepare(RunData(shifted, run.meta), need, prep), theta)
+        d = pred - ref
+        ms.append(float(np.mean(d[np.isfinite(d)] ** 2)) if np.isfinite(d).any() else 0.0)
+    return float(np.mean(ms))
 
 
 _OFFSET_ALIKE = ("torque_offset", "asymmetric_friction")

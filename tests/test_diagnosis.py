@@ -418,3 +418,28 @@ def test_a_campaign_with_no_steady_sample_left_is_refused_in_words():
     train = [RunData(samples=wild, meta=dict(train[0].meta))] + list(train[1:])
     with pytest.raises(ValueError, match=r"no (training|held-out) sample left .* near-zero speed"):
         diagnose(train, test, "eq4", transmission=None)
+
+
+def test_the_encoder_step_floor_of_the_twist_law_follows_the_motion():
+    """An output encoder at rest keeps its rounding error whole: (k·step)²/12 through the
+    stiffness; one crossing many steps within the low-pass window averages it out. The floor is
+    measured by re-quantising the run's smoothed angle and passing it through the law."""
+    from estimator.diagnosis import quantisation_floor
+    from estimator.models import eq5
+    from estimator.preprocess import PrepOptions
+    fs, k = 100.0, 1e7
+    step = np.deg2rad(0.01)
+    t = np.arange(0.0, 60.0, 1.0 / fs)
+    whole = (k * step) ** 2 / 12.0
+
+    def floor(q, decimate):
+        df = pd.DataFrame({"t": t, "q": np.round(q / step) * step, "u": q + 1e-3,
+                           "torque": np.zeros(t.size)})
+        run = RunData(df, {"sample_rate_hz": fs, "sensors": {"q": {"resolution": step},
+                                                             "torque": {"noise_sd": 1.0}}})
+        return quantisation_floor(run, eq5(), {"k": k, "D": 0.0, "C": 0.0},
+                                  PrepOptions(decimate=decimate))
+
+    assert floor(np.full(t.size, 0.123), 5) == pytest.approx(whole, rel=0.03)
+    assert floor(0.03 * t, 1) == pytest.approx(whole, rel=0.03)      # unfiltered: white, whole
+    assert floor(0.03 * t, 5) < 0.05 * whole                          # low-passed: averaged out
