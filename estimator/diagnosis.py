@@ -859,8 +859,77 @@ def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
     return float(pair[0]), float(pair[1])
 
 
-def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
-                       ) -> tuple[LinearModel, dict]:
+SOFT_CENTRE_GRID = 48
+"""Half-widths tried for a soft centre (soft_centre), log-spaced over the dead zones searched:
+fine enough (4 % apart over the backlash grid's range) that a dead zone's own half-width is
+among them."""
+
+
+def twist_resolution(runs: Sequence[RunData]) -> float | None:
+    """The coarsest step [rad] with which the runs measure the twist u − q: the sum of the
+    output and motor encoders' stated steps (`sensors[q|u].resolution`, docs/run-format.md),
+    the largest over the runs; None when a run states no output-encoder step."""
+    steps = []
+    for r in runs:
+        s = r.meta.get("sensors") if isinstance(r.meta, dict) else None
+        q = float(((s or {}).get("q") or {}).get("resolution", 0.0))
+        if q <= 0:
+            return None
+        steps.append(q + float(((s or {}).get("u") or {}).get("resolution", 0.0)))
+    return max(steps) if steps else None
+
+
+def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
+                resolution: float | None) -> float | None:
+    """The half-width θ₀ [rad] of a soft centre of the compliance curve, or None. θ₀ is the
+    half-width, over the dead zones the backlash candidate searches (`opt.backlash_b_rel` of
+    the training twist's top |Δ|, SOFT_CENTRE_GRID values), of the stiffness change that fits
+    the elastic law best with the curve's two knees. It is kept only when the stiffness it
+    leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the stiffness beyond it by
+    `opt.z_gain` standard errors of the fit. A gear train whose teeth take up the load
+    progressively is softer near zero twist: a harmonic drive's catalogue K1 is 0.5–0.7 of K2,
+    the nominal curve's first segment. A dead zone takes the stiffness away inside its gap
+    (k_in ≈ 0): that is backlash, left to its candidate. The data tell the two apart only when
+    the centre spans `opt.soft_centre_min_steps` of the twist's `resolution` [rad]: a narrower
+    dead zone seen through the encoders' rounding is a centre of reduced stiffness too. None
+    when the runs do not state their encoders' steps."""
+    if resolution is None or resolution <= 0:
+        return None
+    d = np.asarray(tr["torsion"], dtype=float)
+    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
+    base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
+                            d ** 3, *(knee_column(k)(tr) for k in knees)])
+    y = np.asarray(tr["torque"], dtype=float)
+    scale = np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0), 1.0)
+    q, _ = np.linalg.qr(base / scale)
+    y_left = y - q @ (q.T @ y)
+    best, best_rss = None, np.inf
+    for theta in np.geomspace(min(opt.backlash_b_rel) * top, max(opt.backlash_b_rel) * top,
+                              SOFT_CENTRE_GRID):
+        h = knee_column(theta)(tr)
+        h = h - q @ (q.T @ h)
+        hh = float(h @ h)
+        if hh <= 0:
+            continue
+        rss = float(y_left @ y_left) - float(h @ y_left) ** 2 / hh
+        if rss < best_rss:
+            best, best_rss = theta, rss
+    if best is None:
+        return None
+    fit = ols(np.column_stack([base, knee_column(best)(tr)]), y)
+    r = opt.soft_centre_min_ratio
+    c = np.zeros(fit.theta.size)
+    c[0], c[-1] = 1.0 - r, -r          # k_in − r·(k_in + dk)
+    margin = float(c @ fit.theta)
+    se = float(np.sqrt(max(c @ fit.cov @ c, 0.0)))
+    if (fit.theta[-1] > 0 and np.isfinite(se) and margin > opt.z_gain * se
+            and best >= opt.soft_centre_min_steps * resolution):
+        return float(best)
+    return None
+
+
+def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
+                       resolution: float | None = None) -> tuple[LinearModel, dict]:
     """The nominal twist–torque law and the shape chosen for it on the training signals `tr`:
     'auto' or 'bouc_wen' — issue 7's nominal, the Bouc–Wen law as Eq. 11 with its state x for
     the shape (α = 1, n = 1, β, γ) of bouc_wen_grid with the smallest training RSS (profile least
@@ -868,9 +937,13 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
     model / spec of estimator.models; each with a stiffness that changes with the twist
     (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
     law, identified like k, not a gap; its knees from compliance_knees, reported in the
-    shape as knee_1, knee_2 [rad])."""
+    shape as knee_1, knee_2 [rad], and a soft centre's half-width from soft_centre as
+    soft_centre [rad] when the curve has one)."""
     knees = compliance_knees(tr, opt)
     knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
+    centre = soft_centre(tr, knees, opt, resolution)
+    if centre is not None:
+        knee_shape["soft_centre"] = centre
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
         from scipy.optimize import minimize
 
@@ -890,12 +963,12 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions
         res = minimize(rss, v0, method="Nelder-Mead",
                        options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
         sh = shape(res.x if res.fun <= rss(v0) else v0)
-        return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees),
-                {**sh, **knee_shape})
+        return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees,
+                                centre), {**sh, **knee_shape})
     m = base_model(spec)
     if m.kind != "transmission":
         raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
-    return with_stiffening(m, knees), knee_shape
+    return with_stiffening(m, knees, centre), knee_shape
 
 
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
@@ -926,7 +999,7 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     tprep = replace(prep, decimate=prep.decimate * opt.transmission_decimate)
     tr = _pool(train_runs, TRANSMISSION_SIGNALS, tprep, 0)
     progress("twist–torque law: nominal shape", 0, 1)
-    model, shape = transmission_model(spec, tr, opt)
+    model, shape = transmission_model(spec, tr, opt, twist_resolution(runs))
     progress("twist–torque law: nominal shape", 1, 1)
     carried = dict(carried or {})
     for name, shp in carried.items():

@@ -142,3 +142,38 @@ def test_a_loop_run_backwards_is_not_hysteresis():
         row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
         assert np.sign(k_h) == sign, k_h
         assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+
+
+def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
+    """A transmission softer near zero twist (its teeth taking up the load progressively:
+    stiffness K_in inside ±θ, K beyond, K_in/K = 0.55) is nominal; a dead zone (no stiffness
+    inside its gap) is left to the backlash candidate, and so is a smoothed one."""
+    from estimator.diagnosis import soft_centre
+    k, theta = 1.5e7, 0.8e-3
+    opt = DiagnosisOptions()
+
+    def soft(d):
+        return k * d - 0.45 * k * np.clip(d, -theta, theta)
+
+    def dead(d):
+        return k * backlash_twist(d, theta)
+
+    def smoothed_dead(d):
+        eps = 0.3 * theta
+        sp = lambda x: eps * np.logaddexp(0.0, x / eps)      # noqa: E731
+        return k * (sp(d - theta) - sp(-d - theta))
+
+    found = {}
+    for name, curve in (("soft", soft), ("dead", dead), ("smoothed dead", smoothed_dead)):
+        sig = signals(curve)
+        found[name] = soft_centre(sig, compliance_knees(sig, opt), opt, 1e-5)
+    top = float(np.quantile(np.abs(signals(soft)["torsion"]), 0.99))
+    assert found["soft"] is not None and abs(found["soft"] - theta) < 0.5 * theta, found
+    assert found["dead"] is None and found["smoothed dead"] is None, found
+    assert found["soft"] <= max(opt.backlash_b_rel) * top
+    sig = signals(soft)
+    knees = compliance_knees(sig, opt)
+    # a centre a few encoder steps wide cannot be told from a dead zone blurred by the rounding,
+    # and without the steps stated there is no telling at all
+    assert soft_centre(sig, knees, opt, theta / 3.0) is None
+    assert soft_centre(sig, knees, opt, None) is None
