@@ -814,6 +814,21 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
 TRANSMISSION_SIGNALS = ("torsion", "torsion_rate", "torque")
 
 
+def _elastic_basis(tr: dict, knees: Sequence[float] = ()
+                   ) -> tuple[float, np.ndarray, np.ndarray]:
+    """The training twist's top |Δ| [rad] (its 99th percentile), the columns of the elastic law
+    T = k·Δ + D·Δ̇ + C + k3·Δ³ (+ a stiffness change beyond each of `knees`), and an orthonormal
+    basis of them (column-normalised first): the profile least squares of compliance_knees
+    and soft_centre project a trial column and the torque on it."""
+    d = np.asarray(tr["torsion"], dtype=float)
+    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
+    base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
+                            d ** 3, *(knee_column(k)(tr) for k in knees)])
+    q, _ = np.linalg.qr(base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0),
+                                        1.0))
+    return top, base, q
+
+
 def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
     """The two knee twists [rad] of the nominal compliance curve: the pair of
     `opt.compliance_knee_rel` (fractions of the training twist's top |Δ|, its 99th
@@ -822,13 +837,9 @@ def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
     if min(opt.compliance_knee_rel) <= max(opt.backlash_b_rel):
         raise ValueError("compliance_knee_rel must lie above backlash_b_rel (a knee inside the "
                          "dead zones searched would take backlash's place)")
-    d = np.asarray(tr["torsion"], dtype=float)
-    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
-    base = np.column_stack([d, tr["torsion_rate"], np.ones_like(d), d ** 3])
-    base = base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0), 1.0)
     # the knee columns and the torque with the rest of the law projected out: each pair's RSS
     # is then a 2 × 2 solve
-    q, _ = np.linalg.qr(base)
+    top, _, q = _elastic_basis(tr)
     y = np.asarray(tr["torque"], dtype=float)
     y = y - q @ (q.T @ y)
 
@@ -895,13 +906,8 @@ def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     when the runs do not state their encoders' steps."""
     if resolution is None or resolution <= 0:
         return None
-    d = np.asarray(tr["torsion"], dtype=float)
-    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
-    base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
-                            d ** 3, *(knee_column(k)(tr) for k in knees)])
+    top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
-    scale = np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0), 1.0)
-    q, _ = np.linalg.qr(base / scale)
     y_left = y - q @ (q.T @ y)
     best, best_rss = None, np.inf
     for theta in np.geomspace(min(opt.backlash_b_rel) * top, max(opt.backlash_b_rel) * top,
