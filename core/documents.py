@@ -322,10 +322,15 @@ class DiagnosisReport(TypedDict, total=False):
     steps: list[dict[str, Any]]
     rejected: list[dict[str, Any]]
     transient_samples_left_out: int
-    drive_train_mode: dict[str, float] | None
+    drive_train_mode: dict[str, float | None] | None
     """The output balance's band capped at half the drive train's first mode (estimator.
     diagnosis.below_drive_train_mode): stiffness [N·m/rad], inertia [kg·m²], mode_hz,
+    line_hz (None when the band's excess power, not a line, showed the ringing), band_excess,
     band_hz (before), cutoff_hz; None when the band was left as it was."""
+    velocity: dict[str, Any] | None
+    """Which velocity the output balance read (estimator.diagnosis.velocity_source): source
+    ("measured" or "output angle"), rmse_measured and rmse_derived [N·m] of the nominal law on
+    the training runs, gain_z; None when the law reads no measured velocity."""
     verdict: DiagnosisVerdict
     shrinkage: dict[str, Any]
     options: dict[str, Any]

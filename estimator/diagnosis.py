@@ -73,8 +73,9 @@ from estimator.diagnosis_candidates import (_candidate_models, _contribution, _e
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
-from estimator.diagnosis_stats import (angle_lines, block_ids, bootstrap_shrinkage,
-                                       cross_correlation, spectral_line, whiteness)
+from estimator.diagnosis_stats import (angle_lines, band_excess, block_ids,
+                                       bootstrap_shrinkage, cross_correlation, spectral_line,
+                                       whiteness)
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
 from estimator.emps import emps_model
@@ -383,19 +384,30 @@ def _series(pooled: dict, n_train: int, model: LinearModel, e0: np.ndarray, e1: 
                         for r in flagged if r["family"] in fams]}
 
 
-def transient_mask(sig: dict, window_s: float) -> np.ndarray:
+def transient_mask(sig: dict, window_s: float, angle_step: float = 0.0) -> np.ndarray:
     """True on the samples within window_s [s] of one where the joint is at rest or passing
     through zero speed (|q̇| below 5 % of the campaign's top speed, the regions' "near zero
     speed"): a start, a stop, a reversal.
     There a real joint sticks, presslides and breaks away (dynamic friction), its friction at
     rest is whatever holds it, and no static friction form of the vocabulary models that — it
-    would otherwise pass for a Stribeck rise, or leave structure no candidate can explain."""
+    would otherwise pass for a Stribeck rise, or leave structure no candidate can explain.
+    With the output encoder's step `angle_step` [rad] > 0, a sample is also at rest when the
+    angle moves less than that band over a window of 2·angle_step/band (the time the encoder
+    needs to resolve it; at least two samples) around it: a velocity reading that lags or is
+    smoothed (a drive's observer) can pass a short stop by — a load released at speed slips the
+    joint forward, stops it for a tenth of a second and lets it go on — while the angle shows it."""
     out = np.zeros(sig["t"].size, dtype=bool)
     band = 0.05 * float(np.quantile(np.abs(sig["qd"]), 0.99))
     for r in np.unique(sig["run"]):
         idx = np.flatnonzero(sig["run"] == r)
         v, t = sig["qd"][idx], sig["t"][idx]
         slow = np.abs(v) <= band
+        if angle_step > 0 and band > 0 and "q" in sig and t.size > 2:
+            q = sig["q"][idx]
+            half = 0.5 * max(2.0 * angle_step / band, 2.0 * float(np.median(np.diff(t))))
+            moved = np.interp(t + half, t, q) - np.interp(t - half, t, q)
+            inside = (t - half >= t[0]) & (t + half <= t[-1])
+            slow |= inside & (np.abs(moved) <= band * 2.0 * half)
         if not slow.any():
             continue
         # dilate the slow samples by window_s on both sides
@@ -404,6 +416,19 @@ def transient_mask(sig: dict, window_s: float) -> np.ndarray:
         hi = np.searchsorted(ts, t + window_s, side="right")
         out[idx] = hi > lo
     return out
+
+
+def output_encoder_step(runs: Sequence[RunData]) -> float:
+    """The coarsest output-encoder step [rad] the runs state (`sensors.q.resolution`,
+    docs/run-format.md); 0 when a run states none."""
+    steps = []
+    for r in runs:
+        s = r.meta.get("sensors") if isinstance(r.meta, dict) else None
+        q = float(((s or {}).get("q") or {}).get("resolution", 0.0) or 0.0)
+        if not q > 0:
+            return 0.0
+        steps.append(q)
+    return max(steps) if steps else 0.0
 
 
 def advanced(y: np.ndarray, t: np.ndarray, lag_s: float) -> np.ndarray:
@@ -494,17 +519,21 @@ def working_rate(runs: Sequence[RunData], prep: PrepOptions, opt: DiagnosisOptio
 
 
 def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: LinearModel,
-                           transient_s: float) -> tuple[PrepOptions, dict | None]:
+                           transient_s: float, mode_band_excess: float = 2.0
+                           ) -> tuple[PrepOptions, dict | None]:
     """For an output balance with an inertia term: `prep` low-passed (every channel) at half
     the drive train's first mode f₁ = √(k/I)/2π when f₁/2 lies inside the analysed band, and
     what was measured (None when nothing was changed). At f₁ the output inertia rings on the
     transmission stiffness with a motion of the order of the output encoder's step, so the
     balance's I·q̈ cannot be measured there: the ringing would be left in the residual as
     structure (and pull the fitted I down) though the model lacks nothing. Done only when the
-    nominal residual shows that ringing. k is the least-squares slope of the torque on the
-    twist u − q over the runs; I the law fitted below 2 Hz (where the encoder resolves the
-    motion) on the steady samples (`transient_mask`: a low-passed sgn q̇ is wrong around
-    reversals). Runs without a twist (no motor angle) are left as they are."""
+    nominal residual shows that ringing: a dominant spectral line within 25 % of f₁, or at
+    least `mode_band_excess` times a white residual's power between 0.5·f₁ and 1.5·f₁
+    (`band_excess`: on a stiffening transmission the mode moves with the load). k is the
+    least-squares slope of the torque on the twist u − q over the runs; I the law fitted below
+    2 Hz (where the encoder resolves the motion) on the steady samples (`transient_mask`: a
+    low-passed sgn q̇ is wrong around reversals). Runs without a twist (no motor angle) are
+    left as they are."""
     if model.kind != "output" or "I_xx" not in model.param_names:
         return prep, None
     num = den = 0.0
@@ -528,7 +557,7 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     lo_prep = replace(prep, cutoff_hz=low, filter_outputs=True)
     pooled = _pool(list(runs), list(model.requires), lo_prep, 0)
     if transient_s > 0:
-        pooled = _slice(pooled, ~transient_mask(pooled, transient_s))
+        pooled = _slice(pooled, ~transient_mask(pooled, transient_s, output_encoder_step(runs)))
     if pooled["t"].size <= 2 * len(model.param_names):   # nothing steady to measure I on
         return prep, None
     fit = _fit(model, {}, pooled, pooled)
@@ -543,17 +572,60 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     # drive train does not ring, the band and its sensitivity stay whole
     full = _pool(list(runs), list(model.requires), prep, 0)
     if transient_s > 0:
-        full = _slice(full, ~transient_mask(full, transient_s))
+        full = _slice(full, ~transient_mask(full, transient_s, output_encoder_step(runs)))
     if full["t"].size <= 2 * len(model.param_names):
         return prep, None
     e = _fit(model, {}, full, full).e_train
     line = spectral_line(e, full["t"], full["run"])
-    if not (line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
-            and abs(line["freq_hz"] - f1) < 0.25 * f1):
+    at_line = bool(line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
+                   and abs(line["freq_hz"] - f1) < 0.25 * f1)
+    excess = band_excess(e, full["t"], full["run"], 0.5 * f1, 1.5 * f1)
+    if not (at_line or excess >= mode_band_excess):
         return prep, None
     return replace(prep, cutoff_hz=0.5 * f1, filter_outputs=True), {
-        "stiffness": k, "inertia": inertia, "mode_hz": f1, "line_hz": float(line["freq_hz"]),
+        "stiffness": k, "inertia": inertia, "mode_hz": f1,
+        "line_hz": float(line["freq_hz"]) if at_line else None, "band_excess": excess,
         "band_hz": band, "cutoff_hz": 0.5 * f1}
+
+
+def velocity_source(runs: Sequence[RunData], prep: PrepOptions, model: LinearModel,
+                    transient_s: float, z: float, block: int | None = None
+                    ) -> tuple[PrepOptions, dict | None]:
+    """For an output balance on runs that carry a measured velocity: `prep` with q̇ derived
+    from the output angle instead (PrepOptions.derive_velocity) when the nominal law fitted
+    that way leaves a smaller residual on the training `runs`, by more than z standard errors
+    of the per-block difference of squared residuals; and what was compared (None when the
+    law reads no velocity). A drive's velocity estimate (an observer, a tracking loop) can lag
+    and smooth the motion it reports while its sheet states no lag; q̈ is differentiated from
+    it, so I·q̈ carries the error into the law as structure. Both fits share every sample,
+    every column and the band, so the smaller residual is the velocity that agrees with the
+    torque: a decision made on the campaign, not on a constant."""
+    if (model.kind != "output" or prep.derive_velocity or not runs
+            or not all({"q", "qd"} <= set(r.samples.columns) for r in runs)):
+        return prep, None
+    need = list(model.requires)
+    pooled = {dv: _pool(list(runs), need, replace(prep, derive_velocity=dv), 0)
+              for dv in (False, True)}
+    if not np.array_equal(pooled[False]["t"], pooled[True]["t"]):
+        return prep, None
+    keep = (~transient_mask(pooled[False], transient_s, output_encoder_step(runs))
+            if transient_s > 0 else np.ones(pooled[False]["t"].size, dtype=bool))
+    if keep.sum() <= 2 * len(model.param_names):
+        return prep, None
+    e = {dv: _fit(model, {}, _slice(p, keep), _slice(p, keep)).e_train
+         for dv, p in pooled.items()}
+    d = e[False] ** 2 - e[True] ** 2
+    run = pooled[False]["run"][keep]
+    n_per_run = np.bincount(run)
+    ids = block_ids(run, block or max(10, int(np.sqrt(np.median(n_per_run[n_per_run > 0])))))
+    means = np.array([d[ids == b].mean() for b in np.unique(ids)])
+    gain = float(means.mean())
+    se = float(means.std(ddof=1) / np.sqrt(means.size)) if means.size > 1 else float("inf")
+    derived = bool(gain > 0 and gain > z * se)
+    return (replace(prep, derive_velocity=True) if derived else prep), {
+        "source": "output angle" if derived else "measured",
+        "rmse_measured": _rmse(e[False]), "rmse_derived": _rmse(e[True]),
+        "gain_z": gain / se if se > 0 else 0.0}
 
 
 def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
@@ -575,11 +647,14 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         avail &= set(_available(r, prep))
     need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
     law_prep, mode = below_drive_train_mode(list(train_runs) + list(test_runs), prep, model,
-                                            opt.transient_s)
+                                            opt.transient_s, opt.mode_band_excess)
+    law_prep, velocity = velocity_source(train_runs, law_prep, model, opt.transient_s,
+                                         opt.z_gain, opt.block)
     pooled = _pool(list(train_runs) + list(test_runs), need, law_prep, 0)
     n_transient = 0
     if model.kind == "output" and opt.transient_s > 0 and "qd" in pooled:
-        steady = ~transient_mask(pooled, opt.transient_s)
+        steady = ~transient_mask(pooled, opt.transient_s,
+                                 output_encoder_step(list(train_runs) + list(test_runs)))
         n_transient = int((~steady).sum())
         pooled = _slice(pooled, steady)
     is_train = pooled["run"] < len(train_runs)
@@ -763,6 +838,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         "rejected": rejected,
         "transient_samples_left_out": n_transient,
         "drive_train_mode": mode,
+        "velocity": velocity,
         "verdict": {"status": status, "effects": chosen, "rmse_test_after": _rmse(cur.e_test),
                     "model": cur.model.name,
                     "shapes": {st["effect"]: st["shape"] for st in steps},

@@ -25,6 +25,10 @@ class DiagnosisOptions:
     max_rate_hz: float = 100.0
     """The diagnosis analyses runs sampled faster than this decimated to it (low-passed first):
     see estimator.diagnosis.working_rate."""
+    mode_band_excess: float = 2.0
+    """The output balance is analysed below half the drive train's first mode f₁ also when its
+    nominal residual holds this many times the power a white residual would put between 0.5·f₁
+    and 1.5·f₁ (estimator.diagnosis.below_drive_train_mode); docs/diagnosis.md."""
     transient_s: float = 0.5
     """The output-side law leaves out the samples within this time [s] of a velocity reversal
     and of a start from rest (estimator.diagnosis.transient_mask); 0 keeps them."""

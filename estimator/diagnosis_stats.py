@@ -121,12 +121,13 @@ def cross_correlation(residual: np.ndarray, inputs: dict[str, np.ndarray], run: 
     return {"inputs": out, "bound": bound}
 
 
-def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
-    """Fisher's g test for one dominant line in each run's residual periodogram (detrended);
-    the smallest Bonferroni p-value, its frequency [Hz] and the line's share of the variance."""
-    best = {"p_value": 1.0, "freq_hz": None, "share": 0.0}
-    runs = np.unique(run)
-    for r in runs:
+def run_periodograms(residual: np.ndarray, t: np.ndarray, run: np.ndarray
+                     ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(frequencies [Hz], periodogram) of each run's residual, detrended (a straight line taken
+    out), without the zero-frequency bin and, for an even length, the Nyquist one; runs shorter
+    than 64 samples are left out."""
+    out = []
+    for r in np.unique(run):
         m = run == r
         x = residual[m]
         if x.size < 64:
@@ -135,16 +136,39 @@ def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
         x = x - np.polyval(np.polyfit(np.arange(x.size), x, 1), np.arange(x.size))
         spec = np.abs(np.fft.rfft(x)) ** 2
         spec = spec[1:-1] if x.size % 2 == 0 else spec[1:]
+        out.append((np.arange(1, spec.size + 1) / (x.size * dt), spec))
+    return out
+
+
+def spectral_line(residual: np.ndarray, t: np.ndarray, run: np.ndarray) -> dict:
+    """Fisher's g test for one dominant line in each run's residual periodogram (detrended);
+    the smallest Bonferroni p-value, its frequency [Hz] and the line's share of the variance."""
+    best = {"p_value": 1.0, "freq_hz": None, "share": 0.0}
+    n_runs = np.unique(run).size
+    for f, spec in run_periodograms(residual, t, run):
         if spec.size < 8 or spec.sum() <= 0:
             continue
         k = int(np.argmax(spec))
         g = float(spec[k] / spec.sum())
         mm = spec.size
-        p = min(1.0, mm * (1.0 - g) ** (mm - 1)) * runs.size
+        p = min(1.0, mm * (1.0 - g) ** (mm - 1)) * n_runs
         if p < best["p_value"]:
-            best = {"p_value": float(min(1.0, p)), "freq_hz": float((k + 1) / (x.size * dt)),
-                    "share": g}
+            best = {"p_value": float(min(1.0, p)), "freq_hz": float(f[k]), "share": g}
     return best
+
+
+def band_excess(residual: np.ndarray, t: np.ndarray, run: np.ndarray, lo_hz: float,
+                hi_hz: float) -> float:
+    """The residual's power between lo_hz and hi_hz [Hz] over the power a white residual of
+    the same variance would put there (1: white; each run's detrended periodogram, summed over
+    the runs). A stiffening drive train rings at a frequency that moves with the load, so its
+    ringing spreads over a band where a single spectral line may not stand out."""
+    inside = white = 0.0
+    for f, spec in run_periodograms(residual, t, run):
+        sel = (f >= lo_hz) & (f <= hi_hz)
+        inside += float(spec[sel].sum())
+        white += float(spec.sum()) * float(sel.mean())
+    return inside / white if white > 0 else 0.0
 
 
 def angle_periodogram(residual: np.ndarray, angle: np.ndarray, lo: int, hi: int,
