@@ -604,8 +604,11 @@ def velocity_source(runs: Sequence[RunData], prep: PrepOptions, model: LinearMod
             or not all({"q", "qd"} <= set(r.samples.columns) for r in runs)):
         return prep, None
     need = list(model.requires)
-    pooled = {dv: _pool(list(runs), need, replace(prep, derive_velocity=dv), 0)
-              for dv in (False, True)}
+    try:
+        pooled = {dv: _pool(list(runs), need, replace(prep, derive_velocity=dv), 0)
+                  for dv in (False, True)}
+    except (KeyError, ValueError):       # the law's own pooling says why, with the run's name
+        return prep, None
     if not np.array_equal(pooled[False]["t"], pooled[True]["t"]):
         return prep, None
     keep = (~transient_mask(pooled[False], transient_s, output_encoder_step(runs))

@@ -97,3 +97,17 @@ def test_the_output_encoder_step_is_the_coarsest_stated_one(nominal):
     bare = RunData(samples=runs[0].samples, meta={k: v for k, v in runs[0].meta.items()
                                                   if k != "sensors"})
     assert output_encoder_step(runs + [bare]) == 0.0
+
+
+def test_the_velocity_choice_leaves_an_unreadable_velocity_to_the_laws_own_error(nominal):
+    """A velocity channel with no finite sample: the choice steps aside (the law's own pooling
+    then names the run and the channel), rather than raising from inside the choice."""
+    from estimator.diagnosis import base_model, velocity_source
+    from estimator.preprocess import PrepOptions
+    runs = []
+    for r in nominal[0]:
+        s = r.samples.copy()
+        s["qd"] = np.nan
+        runs.append(RunData(samples=s, meta=dict(r.meta)))
+    prep = PrepOptions()
+    assert velocity_source(runs, prep, base_model("eq4"), 0.5, 3.0) == (prep, None)
