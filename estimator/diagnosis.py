@@ -74,8 +74,8 @@ from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, band_excess, block_ids,
-                                       bootstrap_shrinkage, cross_correlation, spectral_line,
-                                       whiteness)
+                                       bootstrap_shrinkage, cross_correlation, mean_se,
+                                       spectral_line, whiteness)
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.least_squares import ols
 from estimator.emps import emps_model
@@ -418,17 +418,17 @@ def transient_mask(sig: dict, window_s: float, angle_step: float = 0.0) -> np.nd
     return out
 
 
+def stated_resolution(run: RunData, channel: str) -> float:
+    """The step [rad, or the channel's unit] the run's sensor sheet states for `channel`
+    (`sensors[channel].resolution`, docs/run-format.md); 0 when it states none."""
+    s = run.meta.get("sensors") if isinstance(run.meta, dict) else None
+    return float(((s or {}).get(channel) or {}).get("resolution", 0.0) or 0.0)
+
+
 def output_encoder_step(runs: Sequence[RunData]) -> float:
-    """The coarsest output-encoder step [rad] the runs state (`sensors.q.resolution`,
-    docs/run-format.md); 0 when a run states none."""
-    steps = []
-    for r in runs:
-        s = r.meta.get("sensors") if isinstance(r.meta, dict) else None
-        q = float(((s or {}).get("q") or {}).get("resolution", 0.0) or 0.0)
-        if not q > 0:
-            return 0.0
-        steps.append(q)
-    return max(steps) if steps else 0.0
+    """The coarsest output-encoder step [rad] the runs state; 0 when a run states none."""
+    steps = [stated_resolution(r, "q") for r in runs]
+    return max(steps) if steps and min(steps) > 0 else 0.0
 
 
 def advanced(y: np.ndarray, t: np.ndarray, lag_s: float) -> np.ndarray:
@@ -617,18 +617,19 @@ def velocity_source(runs: Sequence[RunData], prep: PrepOptions, model: LinearMod
         return prep, None
     e = {dv: _fit(model, {}, _slice(p, keep), _slice(p, keep)).e_train
          for dv, p in pooled.items()}
-    d = e[False] ** 2 - e[True] ** 2
     run = pooled[False]["run"][keep]
-    n_per_run = np.bincount(run)
-    ids = block_ids(run, block or max(10, int(np.sqrt(np.median(n_per_run[n_per_run > 0])))))
-    means = np.array([d[ids == b].mean() for b in np.unique(ids)])
-    gain = float(means.mean())
-    se = float(means.std(ddof=1) / np.sqrt(means.size)) if means.size > 1 else float("inf")
-    derived = bool(gain > 0 and gain > z * se)
+    gain, se = mean_se(e[False] ** 2 - e[True] ** 2, block_ids(run, block_size(run, block)))
+    gain_z = gain / se if np.isfinite(se) and se > 0 else 0.0
+    derived = bool(gain_z > z)
     return (replace(prep, derive_velocity=True) if derived else prep), {
         "source": "output angle" if derived else "measured",
-        "rmse_measured": _rmse(e[False]), "rmse_derived": _rmse(e[True]),
-        "gain_z": gain / se if se > 0 else 0.0}
+        "rmse_measured": _rmse(e[False]), "rmse_derived": _rmse(e[True]), "gain_z": gain_z}
+
+
+def block_size(run: np.ndarray, block: int | None = None) -> int:
+    """Samples per batch-means block: `block`, or max(10, √(median samples per run))."""
+    n_per_run = np.bincount(run)
+    return block or max(10, int(np.sqrt(np.median(n_per_run[n_per_run > 0]))))
 
 
 def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
@@ -672,8 +673,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                    if n_transient else f"every {part} sample misses a channel the law needs")
             raise ValueError(f"the {law} has no {part} sample left to diagnose on: {why}")
 
-    n_per_run = np.bincount(pooled["run"])
-    block = opt.block or max(10, int(np.sqrt(np.median(n_per_run))))
+    block = block_size(pooled["run"], opt.block)
     blocks = block_ids(pooled["run"], block)
     te_blocks = blocks[~is_train]
 
@@ -957,16 +957,11 @@ among them."""
 
 def twist_resolution(runs: Sequence[RunData]) -> float | None:
     """The coarsest step [rad] with which the runs measure the twist u − q: the sum of the
-    output and motor encoders' stated steps (`sensors[q|u].resolution`, docs/run-format.md),
-    the largest over the runs; None when a run states no output-encoder step."""
-    steps = []
-    for r in runs:
-        s = r.meta.get("sensors") if isinstance(r.meta, dict) else None
-        q = float(((s or {}).get("q") or {}).get("resolution", 0.0))
-        if q <= 0:
-            return None
-        steps.append(q + float(((s or {}).get("u") or {}).get("resolution", 0.0)))
-    return max(steps) if steps else None
+    output and motor encoders' stated steps (`stated_resolution`), the largest over the runs;
+    None when a run states no output-encoder step."""
+    if not runs or output_encoder_step(runs) <= 0:
+        return None
+    return max(stated_resolution(r, "q") + stated_resolution(r, "u") for r in runs)
 
 
 def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
