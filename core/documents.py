@@ -328,7 +328,7 @@ class DiagnosisReport(TypedDict, total=False):
     line_hz (None when the band's excess power, not a line, showed the ringing), band_excess,
     band_hz (before), cutoff_hz; None when the band was left as it was."""
     velocity: dict[str, Any] | None
-    """Which velocity the output balance read (estimator.diagnosis.velocity_source): source
+    """Which velocity the output balance read (estimator.diagnosis_inputs.velocity_source): source
     ("measured" or "output angle"), rmse_measured and rmse_derived [N·m] of the nominal law on
     the training runs, gain_z; None when the law reads no measured velocity."""
     verdict: DiagnosisVerdict

@@ -24,14 +24,14 @@ class DiagnosisOptions:
     threshold; docs/diagnosis.md)."""
     max_rate_hz: float = 100.0
     """The diagnosis analyses runs sampled faster than this decimated to it (low-passed first):
-    see estimator.diagnosis.working_rate."""
+    see estimator.diagnosis_inputs.working_rate."""
     mode_band_excess: float = 2.0
     """The output balance is analysed below half the drive train's first mode f₁ also when its
     nominal residual holds this many times the power a white residual would put between 0.5·f₁
-    and 1.5·f₁ (estimator.diagnosis.below_drive_train_mode); docs/diagnosis.md."""
+    and 1.5·f₁ (estimator.diagnosis_inputs.below_drive_train_mode); docs/diagnosis.md."""
     transient_s: float = 0.5
     """The output-side law leaves out the samples within this time [s] of a velocity reversal
-    and of a start from rest (estimator.diagnosis.transient_mask); 0 keeps them."""
+    and of a start from rest (estimator.diagnosis_inputs.transient_mask); 0 keeps them."""
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))
@@ -68,12 +68,12 @@ class DiagnosisOptions:
     soft_centre_min_ratio: float = 0.25
     """Least stiffness inside a soft centre of the compliance curve, as a share of the stiffness
     beyond it, for the centre to be the nominal curve's first segment rather than a dead zone
-    (estimator.diagnosis.soft_centre): a dead zone leaves ≈ 0, a harmonic drive's catalogue
+    (estimator.diagnosis_transmission.soft_centre): a dead zone leaves ≈ 0, a harmonic drive's catalogue
     K1/K2 is 0.5–0.7; docs/diagnosis.md."""
     soft_centre_min_steps: float = 5.0
     """Least half-width of a soft centre, in steps of the twist's measurement (the encoders'
     stated resolution): a dead zone a few steps wide, blurred by the rounding, is a soft centre
-    too (estimator.diagnosis.soft_centre); docs/diagnosis.md."""
+    too (estimator.diagnosis_transmission.soft_centre); docs/diagnosis.md."""
     bw_yield_rel: tuple[float, ...] = (0.01, 0.02, 0.04, 0.07, 0.12, 0.2, 0.35)
     """Bouc–Wen yield twists α/(β+γ) searched (α = 1, n = 1; only α·k_h is identifiable), as
     fractions of the training runs' top |Δ| — for the nominal Bouc–Wen law and for the

@@ -28,6 +28,12 @@ def block_ids(run: np.ndarray, block: int) -> np.ndarray:
     return out
 
 
+def block_size(run: np.ndarray, block: int | None = None) -> int:
+    """Samples per batch-means block: `block`, or max(10, √(median samples per run))."""
+    n_per_run = np.bincount(run)
+    return block or max(10, int(np.sqrt(np.median(n_per_run[n_per_run > 0]))))
+
+
 def mean_se(v: np.ndarray, blocks: np.ndarray) -> tuple[float, float]:
     """Mean of v and its batch-means standard error (blocks: block index of each sample).
     Fewer than 3 blocks: the SE is +inf (no claim is made)."""

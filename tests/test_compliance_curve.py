@@ -1,5 +1,5 @@
 """The nominal twist–torque law's compliance curve (estimator.models.with_stiffening with the knees
-of estimator.diagnosis.compliance_knees): a three-slope curve, as a harmonic drive's catalogue
+of estimator.diagnosis_transmission.compliance_knees): a three-slope curve, as a harmonic drive's catalogue
 gives it, is part of the nominal law — its knees are found from the data — while a dead zone
 (backlash) stays outside it, because the knees searched lie beyond the widest dead zone
 searched. And the physical sign of a fitted effect (estimator.models.physical_objection): a dead
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from core.effects import backlash_twist
-from estimator.diagnosis import compliance_knees
+from estimator.diagnosis_transmission import compliance_knees
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.least_squares import ols
 from estimator.models import eq5, with_stiffening
@@ -148,7 +148,7 @@ def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
     """A transmission softer near zero twist (its teeth taking up the load progressively:
     stiffness K_in inside ±θ, K beyond, K_in/K = 0.55) is nominal; a dead zone (no stiffness
     inside its gap) is left to the backlash candidate, and so is a smoothed one."""
-    from estimator.diagnosis import soft_centre
+    from estimator.diagnosis_transmission import soft_centre
     k, theta = 1.5e7, 0.8e-3
     opt = DiagnosisOptions()
 

@@ -337,7 +337,7 @@ def test_nothing_injected_in_the_elastic_world_gives_none(tx_reports):
 def test_the_sensor_floor_of_the_output_balance_counts_the_load_cell_too():
     """T − τ_L carries the noise of both readings: the floor is σ_T² + σ_L², not σ_T² alone
     (which called the load cell's noise structure)."""
-    from estimator.diagnosis import sensor_floor
+    from estimator.diagnosis_floors import sensor_floor
     from estimator.models import eq4, eq5
     t = np.arange(0.0, 10.0, 0.01)
     samples = pd.DataFrame({"t": t, "q": 0.01 * t, "qd": np.full(t.size, 0.01),
@@ -424,7 +424,7 @@ def test_the_encoder_step_floor_of_the_twist_law_follows_the_motion():
     """An output encoder at rest keeps its rounding error whole: (k·step)²/12 through the
     stiffness; one crossing many steps within the low-pass window averages it out. The floor is
     measured by re-quantising the run's smoothed angle and passing it through the law."""
-    from estimator.diagnosis import quantisation_floor
+    from estimator.diagnosis_floors import quantisation_floor
     from estimator.models import eq5
     from estimator.preprocess import PrepOptions
     fs, k = 100.0, 1e7

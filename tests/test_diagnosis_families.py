@@ -133,7 +133,7 @@ def test_a_lag_taken_out_leaves_the_noise_at_the_sd_its_sheet_states():
     """A shift by a fraction of the sample period must not filter the noise: linear
     interpolation at 0.4 of a period keeps 0.72 of a white noise's sd (and correlates
     neighbours), so the stated sd would floor the law above its true noise."""
-    from estimator.diagnosis import advanced
+    from estimator.diagnosis_inputs import advanced
     rng = np.random.default_rng(3)
     t = np.arange(100_000) * 0.01
     noise = rng.normal(0.0, 1.0, t.size)
@@ -154,7 +154,7 @@ def test_a_lag_taken_out_leaves_the_noise_at_the_sd_its_sheet_states():
 
 
 def test_a_known_sensor_lag_is_taken_out_before_the_diagnosis():
-    from estimator.diagnosis import lag_corrected
+    from estimator.diagnosis_inputs import lag_corrected
     t = np.arange(0, 10, 0.01)
     true = np.sin(t)
     lagged = np.sin(t - 0.05)                        # the torque arrives 50 ms late

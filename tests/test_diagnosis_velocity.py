@@ -1,4 +1,4 @@
-"""The output balance's motion readings: which velocity it reads (estimator.diagnosis.
+"""The output balance's motion readings: which velocity it reads (estimator.diagnosis_inputs.
 velocity_source), the stops the transient mask sees in the angle when the velocity reading
 smooths them over (transient_mask), and the drive-train ringing seen as band power
 (band_excess)."""
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from core.run import RunData
-from estimator.diagnosis import diagnose, output_encoder_step, transient_mask
+from estimator.diagnosis import diagnose
+from estimator.diagnosis_inputs import output_encoder_step, transient_mask
 from estimator.diagnosis_stats import band_excess
 
 
@@ -102,7 +103,8 @@ def test_the_output_encoder_step_is_the_coarsest_stated_one(nominal):
 def test_the_velocity_choice_leaves_an_unreadable_velocity_to_the_laws_own_error(nominal):
     """A velocity channel with no finite sample: the choice steps aside (the law's own pooling
     then names the run and the channel), rather than raising from inside the choice."""
-    from estimator.diagnosis import base_model, velocity_source
+    from estimator.diagnosis_data import base_model
+    from estimator.diagnosis_inputs import velocity_source
     from estimator.preprocess import PrepOptions
     runs = []
     for r in nominal[0]:

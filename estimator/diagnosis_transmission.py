@@ -1,0 +1,178 @@
+"""The nominal twist–torque law of the diagnosis's transmission check (estimator.diagnosis): the
+elastic law with a cubic stiffening, the two knees of its compliance curve and a soft centre,
+all found from the training runs, and the encoders' step as the twist sees it."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from core.run import RunData
+from estimator.diagnosis_candidates import bouc_wen_grid
+from estimator.diagnosis_data import base_model
+from estimator.diagnosis_inputs import output_encoder_step, stated_resolution
+from estimator.diagnosis_options import DiagnosisOptions
+from estimator.least_squares import ols
+from estimator.models import LinearModel, eq11, knee_column, with_stiffening
+
+
+TRANSMISSION_SIGNALS = ("torsion", "torsion_rate", "torque")
+
+
+def _elastic_basis(tr: dict, knees: Sequence[float] = ()
+                   ) -> tuple[float, np.ndarray, np.ndarray]:
+    """The training twist's top |Δ| [rad] (its 99th percentile), the columns of the elastic law
+    T = k·Δ + D·Δ̇ + C + k3·Δ³ (+ a stiffness change beyond each of `knees`), and an orthonormal
+    basis of them (column-normalised first): the profile least squares of compliance_knees
+    and soft_centre project a trial column and the torque on it."""
+    d = np.asarray(tr["torsion"], dtype=float)
+    top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
+    base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
+                            d ** 3, *(knee_column(k)(tr) for k in knees)])
+    q, _ = np.linalg.qr(base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0),
+                                        1.0))
+    return top, base, q
+
+
+def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
+    """The two knee twists [rad] of the nominal compliance curve: the pair of
+    `opt.compliance_knee_rel` (fractions of the training twist's top |Δ|, its 99th
+    percentile) whose elastic law — T = k·Δ + D·Δ̇ + C + k3·Δ³ + the two stiffness changes —
+    has the smallest training RSS (profile least squares over the knees)."""
+    if min(opt.compliance_knee_rel) <= max(opt.backlash_b_rel):
+        raise ValueError("compliance_knee_rel must lie above backlash_b_rel (a knee inside the "
+                         "dead zones searched would take backlash's place)")
+    # the knee columns and the torque with the rest of the law projected out: each pair's RSS
+    # is then a 2 × 2 solve
+    top, _, q = _elastic_basis(tr)
+    y = np.asarray(tr["torque"], dtype=float)
+    y = y - q @ (q.T @ y)
+
+    def best_pair(knees: list[float], allowed) -> tuple[float, tuple[float, float]]:
+        h = np.column_stack([knee_column(k)(tr) for k in knees])
+        h = h - q @ (q.T @ h)
+        gram, hy = h.T @ h, h.T @ y
+        best, pair = np.inf, (knees[0], knees[-1])
+        for i in range(len(knees)):
+            for j in range(i + 1, len(knees)):
+                if not allowed(knees[i], knees[j]):
+                    continue
+                ij = [i, j]
+                coef = np.linalg.lstsq(gram[np.ix_(ij, ij)], hy[ij], rcond=None)[0]
+                rss = float(y @ y - hy[ij] @ coef)
+                if rss < best:
+                    best, pair = rss, (knees[i], knees[j])
+        return best, pair
+
+    rel = sorted(set(opt.compliance_knee_rel))
+    _, pair = best_pair([r * top for r in rel], lambda a, b: True)
+    # then each knee to a fifth of the grid's step, within half a step of the grid's choice
+    step = min(np.diff(rel)) * top if len(rel) > 1 else 0.05 * top
+    lo = rel[0] * top
+    fine = sorted({max(lo, k + f * step) for k in pair for f in np.linspace(-0.5, 0.5, 6)})
+    _, pair = best_pair(fine, lambda a, b: (abs(a - pair[0]) <= 0.51 * step
+                                            and abs(b - pair[1]) <= 0.51 * step))
+    return float(pair[0]), float(pair[1])
+
+
+SOFT_CENTRE_GRID = 48
+"""Half-widths tried for a soft centre (soft_centre), log-spaced over the dead zones searched:
+fine enough (4 % apart over the backlash grid's range) that a dead zone's own half-width is
+among them."""
+
+
+def twist_resolution(runs: Sequence[RunData]) -> float | None:
+    """The coarsest step [rad] with which the runs measure the twist u − q: the sum of the
+    output and motor encoders' stated steps (`stated_resolution`), the largest over the runs;
+    None when a run states no output-encoder step."""
+    if not runs or output_encoder_step(runs) <= 0:
+        return None
+    return max(stated_resolution(r, "q") + stated_resolution(r, "u") for r in runs)
+
+
+def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
+                resolution: float | None) -> float | None:
+    """The half-width θ₀ [rad] of a soft centre of the compliance curve, or None. θ₀ is the
+    half-width, over the dead zones the backlash candidate searches (`opt.backlash_b_rel` of
+    the training twist's top |Δ|, SOFT_CENTRE_GRID values), of the stiffness change that fits
+    the elastic law best with the curve's two knees. It is kept only when the stiffness it
+    leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the stiffness beyond it by
+    `opt.z_gain` standard errors of the fit. A gear train whose teeth take up the load
+    progressively is softer near zero twist: a harmonic drive's catalogue K1 is 0.5–0.7 of K2,
+    the nominal curve's first segment. A dead zone takes the stiffness away inside its gap
+    (k_in ≈ 0): that is backlash, left to its candidate. The data tell the two apart only when
+    the centre spans `opt.soft_centre_min_steps` of the twist's `resolution` [rad]: a narrower
+    dead zone seen through the encoders' rounding is a centre of reduced stiffness too. None
+    when the runs do not state their encoders' steps."""
+    if resolution is None or resolution <= 0:
+        return None
+    top, base, q = _elastic_basis(tr, knees)
+    y = np.asarray(tr["torque"], dtype=float)
+    y_left = y - q @ (q.T @ y)
+    best, best_rss = None, np.inf
+    for theta in np.geomspace(min(opt.backlash_b_rel) * top, max(opt.backlash_b_rel) * top,
+                              SOFT_CENTRE_GRID):
+        h = knee_column(theta)(tr)
+        h = h - q @ (q.T @ h)
+        hh = float(h @ h)
+        if hh <= 0:
+            continue
+        rss = float(y_left @ y_left) - float(h @ y_left) ** 2 / hh
+        if rss < best_rss:
+            best, best_rss = theta, rss
+    if best is None:
+        return None
+    fit = ols(np.column_stack([base, knee_column(best)(tr)]), y)
+    r = opt.soft_centre_min_ratio
+    c = np.zeros(fit.theta.size)
+    c[0], c[-1] = 1.0 - r, -r          # k_in − r·(k_in + dk)
+    margin = float(c @ fit.theta)
+    se = float(np.sqrt(max(c @ fit.cov @ c, 0.0)))
+    if (fit.theta[-1] > 0 and np.isfinite(se) and margin > opt.z_gain * se
+            and best >= opt.soft_centre_min_steps * resolution):
+        return float(best)
+    return None
+
+
+def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
+                       resolution: float | None = None) -> tuple[LinearModel, dict]:
+    """The nominal twist–torque law and the shape chosen for it on the training signals `tr`:
+    'auto' or 'bouc_wen' — issue 7's nominal, the Bouc–Wen law as Eq. 11 with its state x for
+    the shape (α = 1, n = 1, β, γ) of bouc_wen_grid with the smallest training RSS (profile least
+    squares); 'eq5' — the elastic law (then hysteresis is a candidate); or any transmission
+    model / spec of estimator.models; each with a stiffness that changes with the twist
+    (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
+    law, identified like k, not a gap; its knees from compliance_knees, reported in the
+    shape as knee_1, knee_2 [rad], and a soft centre's half-width from soft_centre as
+    soft_centre [rad] when the curve has one)."""
+    knees = compliance_knees(tr, opt)
+    knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
+    centre = soft_centre(tr, knees, opt, resolution)
+    if centre is not None:
+        knee_shape["soft_centre"] = centre
+    if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
+        from scipy.optimize import minimize
+
+        def shape(v):   # v = (log(β+γ), logit(β/(β+γ)))
+            ssum, share = float(np.exp(v[0])), float(1.0 / (1.0 + np.exp(-v[1])))
+            return {"alpha": 1.0, "beta": share * ssum, "gamma": (1.0 - share) * ssum, "n": 1}
+
+        def rss(v):
+            sh = shape(v)
+            m = eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"])
+            return ols(m.design(tr), m.target(tr)).rss
+
+        starts = [np.array([np.log(sh["beta"] + sh["gamma"]),
+                            np.log(sh["beta"] / sh["gamma"])]) for sh in bouc_wen_grid(tr, opt)]
+        v0 = min(starts, key=rss)
+        # refine the grid's best (profile least squares over the two shape coordinates)
+        res = minimize(rss, v0, method="Nelder-Mead",
+                       options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
+        sh = shape(res.x if res.fun <= rss(v0) else v0)
+        return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees,
+                                centre), {**sh, **knee_shape})
+    m = base_model(spec)
+    if m.kind != "transmission":
+        raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
+    return with_stiffening(m, knees, centre), knee_shape
