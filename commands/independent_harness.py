@@ -103,6 +103,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig I 25 Hz, 0.002° encoder, 4+2 runs", "rig_i",
             {"sample_rate_hz": 25.0, "encoder_res_deg": 0.002, "torque_noise": 120.0},
             few_runs=True),
+    Variant("rig J 125 Hz, 0.003° encoder, 4 ms torque lag", "rig_j",
+            {"sample_rate_hz": 125.0, "encoder_res_deg": 0.003, "torque_noise": 200.0,
+             "torque_lag_s": 0.004}),
+    Variant("rig J 40 Hz, 0.01° encoder, 4+2 runs", "rig_j",
+            {"sample_rate_hz": 40.0, "encoder_res_deg": 0.01, "torque_noise": 250.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
