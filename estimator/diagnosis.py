@@ -84,7 +84,7 @@ from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, block_size, bootstrap_shrinkage,
                                        cross_correlation, spectral_line, whiteness)
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
-                                              twist_resolution)
+                                              twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, verdict_summary
 from estimator.models import LinearModel
 from estimator.preprocess import PrepOptions, prepare
@@ -508,7 +508,12 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
                    min_structured=opt.transmission_min_structured,
                    min_shrinkage=opt.transmission_min_shrinkage,
                    predictor=opt.transmission_predictor)
+    zero = None
+    if opt.twist_zero_per_run:
+        train_runs, test_runs, zero = twist_zeros(train_runs, test_runs, model, tprep,
+                                                  twist_resolution(runs))
     d = diagnose_detailed(train_runs, test_runs, model, tprep, topt, transmission=None)
     d.report["baseline"]["shape"] = shape
+    d.report["baseline"]["twist_zero"] = zero
     d.report["baseline"]["carried"] = list(carried)
     return d

@@ -94,6 +94,9 @@ class DiagnosisOptions:
     """The twist–torque law is diagnosed on runs low-passed and decimated by this factor
     (estimator.preprocess): the output encoder's step jitters the twist between samples, and the
     Bouc–Wen state would run spurious loops along it; docs/diagnosis.md."""
+    twist_zero_per_run: bool = True
+    """Each run's zero of the twist is set from its own data, within the encoders' stated steps
+    (estimator.diagnosis_transmission.twist_zeros); docs/diagnosis.md."""
     bw_beta_share: tuple[float, ...] = (0.3, 0.6, 0.9)
     """β/(β+γ) searched with each yield twist (sets the unloading branch's shape)."""
     bw_gamma_ratio_generic: tuple[float, ...] = (-1.5, -1.0, -0.5, 0.0, 0.5, 1.0)
