@@ -2,10 +2,11 @@
 tuned on (commands.independent_harness): nothing withheld gives `none` (rig F: no effect named,
 its nominal holds its load motor's ripple), one form of each effect
 family at ENR 2 is named first on the law it acts on, an effect outside the vocabulary is not
-explained — on the two-inertia and planned-motion rigs, rigs B, C, F, G, H, I and J (rigs F's,
-G's, H's, I's and J's after their blind scores); rig E's stiffening transmission and intermediate-stage
-ripple. Fixed seeds (21, 22), chosen before these campaigns were ever diagnosed (rig E's
-nominal: its blind seed, 801)."""
+explained — on the two-inertia and planned-motion rigs, rigs B, C, F, G, H and I (rigs F's, G's,
+H's and I's after their blind scores), and rig J's nominal after its blind score; rig E's
+stiffening transmission and intermediate-stage ripple. Fixed seeds (21, 22), chosen before these
+campaigns were ever diagnosed (rig E's nominal: its blind seed, 801; rig J's seed 21 was
+diagnosed once, with the twist zeros, before its test was written)."""
 
 from __future__ import annotations
 
