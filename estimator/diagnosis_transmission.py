@@ -198,11 +198,12 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     if not resolution or resolution <= 0 or any("torsion" in r.samples.columns for r in runs):
         return list(train_runs), list(test_runs), None
     need = list(dict.fromkeys(("t",) + TRANSMISSION_SIGNALS + tuple(model.requires)))
+    n = len(train_runs)
     try:
-        tr = _pool(train_runs, need, prep, 0)
-        each = [_pool([r], need, prep, 0) for r in runs]
+        pooled = _pool(runs, need, prep, 0)
     except (KeyError, ValueError):       # the law's own pooling says why, with the run's name
         return list(train_runs), list(test_runs), None
+    tr = {k: v[pooled["run"] < n] for k, v in pooled.items()}
     tw, tq = np.asarray(tr["torsion"], dtype=float), np.asarray(tr["torque"], dtype=float)
     tw, tq = tw - tw.mean(), tq - tq.mean()
     k = abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
@@ -210,15 +211,15 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
         return list(train_runs), list(test_runs), None
     theta = ols(model.design(tr), model.target(tr)).theta
     bound = k * resolution
-    out, shifts = [], []
-    for r, p in zip(runs, each):
-        e = model.target(p) - model.design(p) @ theta
-        e = e[np.isfinite(e)]
-        m = float(np.clip(e.mean(), -bound, bound)) if e.size else 0.0
+    e = model.target(pooled) - model.design(pooled) @ theta
+    ok = np.isfinite(e)
+    count = np.bincount(pooled["run"][ok], minlength=len(runs))
+    total = np.bincount(pooled["run"][ok], weights=e[ok], minlength=len(runs))
+    shifts = [float(np.clip(s / c, -bound, bound)) if c else 0.0 for s, c in zip(total, count)]
+    out = []
+    for r, m in zip(runs, shifts):
         df = r.samples.copy()
         df["torque"] = df["torque"].to_numpy(dtype=float) - m
         out.append(RunData(samples=df, meta=r.meta))
-        shifts.append(m)
-    n = len(train_runs)
     return out[:n], out[n:], {"bound_nm": bound, "stiffness": k, "resolution": resolution,
                               "shift_nm": shifts}
