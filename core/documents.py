@@ -302,6 +302,11 @@ class DiagnosisVerdict(TypedDict, total=False):
     summary: str
     laws: dict[str, dict[str, Any]]
     effect_models: dict[str, str]
+    offset_channel: dict[str, Any]
+    """Which torque reading a torque_offset found on the output law lies in
+    (estimator.diagnosis_channel.offset_channel), when a twist–torque law was diagnosed."""
+    outside_vocabulary: list[str]
+    """Causes the runs place outside the vocabulary (an effect taken out of `effects` for it)."""
 
 
 class DiagnosisReport(TypedDict, total=False):

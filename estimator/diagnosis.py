@@ -59,7 +59,9 @@ Where each part lives: the runs prepared and pooled, estimator.diagnosis_data; w
 output balance reads (rests and reversals left out, stated sensor lags taken out, the
 working rate, the band below the drive train's mode, the velocity), estimator.diagnosis_inputs;
 the sensors' floors, estimator.diagnosis_floors; the nominal twist–torque law,
-estimator.diagnosis_transmission; candidates, statistics, regions and the verdict, their
+estimator.diagnosis_transmission; which torque reading a torque_offset lies in (the torque
+channel, or the load cell, which is outside the vocabulary), estimator.diagnosis_channel;
+candidates, statistics, regions and the verdict, their
 diagnosis_* modules. Estimator code: imports core/ and estimator/ only.
 """
 
@@ -73,6 +75,7 @@ import numpy as np
 from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
                                             _score, predicted_shrinkage, run_consistency)
+from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
 from estimator.diagnosis_data import OPTIONAL_SIGNALS, _available, _pool, _slice, base_model
 from estimator.diagnosis_floors import _noise_floor, sensor_floor
 from estimator.diagnosis_inputs import (below_drive_train_mode, lag_corrected,
@@ -81,11 +84,12 @@ from estimator.diagnosis_inputs import (below_drive_train_mode, lag_corrected,
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
-from estimator.diagnosis_stats import (angle_lines, block_ids, block_size, bootstrap_shrinkage,
-                                       cross_correlation, spectral_line, whiteness)
+from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov, block_size,
+                                       bootstrap_shrinkage, cross_correlation, spectral_line,
+                                       whiteness)
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
                                               twist_resolution, twist_zeros)
-from estimator.diagnosis_verdict import merge_transmission, verdict_summary
+from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
 from estimator.models import LinearModel
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
@@ -167,13 +171,16 @@ class Diagnosis:
     """The twist–torque law's own diagnosis (see transmission_diagnosis), when one was made."""
 
 
-def _as_fit(f: _Fit, role: str, shapes: dict) -> Fit:
+def _as_fit(f: _Fit, role: str, shapes: dict, tr: dict, tr_blocks: np.ndarray) -> Fit:
+    """The fit as estimator.result.Fit; extra["cov_blocks"] is its coefficients' covariance
+    robust to the residual's correlation within the batch-means blocks (block_robust_cov)."""
     r = f.ols
     return Fit(model=f.model.name, method="ls", param_names=list(f.model.param_names),
                units=list(f.model.units), mean=f.theta, sd=f.se, ci_low=r.ci_low,
                ci_high=r.ci_high, sigma=r.sigma, rmse_train=_rmse(f.e_train),
                rmse_test=_rmse(f.e_test), diagnostics={"rank": r.rank},
                extra={"diagnosis": role, "shapes": shapes, "cov": f.cov, "dof": r.dof,
+                      "cov_blocks": block_robust_cov(f.model.design(tr), f.e_train, tr_blocks),
                       "n_train": int(f.e_train.size), "n_test": int(f.e_test.size),
                       "target": {"label": f.model.target_label, "unit": f.model.target_unit},
                       "descriptions": dict(f.model.descriptions)})
@@ -455,11 +462,22 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     tx = (transmission_diagnosis(train_runs, test_runs, transmission, prep, opt,
                                  carried=on_channel)
           if transmission is not None and model.kind != "transmission" else None)
+    tr_blocks = blocks[is_train]
+    final = _as_fit(cur, "final", shapes, tr, tr_blocks) if chosen else None
+    if tx is not None and final is not None and OFFSET in chosen:
+        check = offset_channel(cur.model, cur.theta, final.extra["cov_blocks"],
+                               tx.baseline.param_names, tx.baseline.mean,
+                               tx.baseline.extra["cov_blocks"], pooled["t"], pooled["run"],
+                               opt.z_gain)
+        if check is not None:
+            report["verdict"]["offset_channel"] = check
+            if check["channel"] == "torque_load":
+                outside_vocabulary(report["verdict"], OFFSET, LOAD_READING_DRIFT)
     if tx is not None:
         merge_transmission(report, tx.report)
     report["verdict"]["summary"] = verdict_summary(report)
-    return Diagnosis(report=report, baseline=_as_fit(base_fit, "baseline", {}),
-                     final=_as_fit(cur, "final", shapes) if chosen else None, transmission=tx)
+    return Diagnosis(report=report, baseline=_as_fit(base_fit, "baseline", {}, tr, tr_blocks),
+                     final=final, transmission=tx)
 
 
 # --- the transmission law (twist vs torque) ------------------------------------------------------

@@ -237,3 +237,20 @@ def angle_lines(residual: np.ndarray, q: np.ndarray, orders: np.ndarray) -> dict
     best["p_value"] = float(min(1.0, stats.f.sf(best["F"], 2, n - 2) * len(orders))) \
         if best["order"] is not None else 1.0
     return best
+
+
+def block_robust_cov(X: np.ndarray, e: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """Covariance of least-squares coefficients fitted on X (n, p) with residual e, robust to
+    correlation within the batch-means blocks (the cluster sandwich
+    (XᵀX)⁺·Σ_b (X_bᵀe_b)(X_bᵀe_b)ᵀ·(XᵀX)⁺·G/(G−1), G blocks): an ordinary least-squares
+    covariance assumes white errors and is too narrow on a residual that drifts."""
+    X = np.asarray(X, dtype=float)
+    e = np.asarray(e, dtype=float)
+    ub, inv = np.unique(blocks, return_inverse=True)
+    g = ub.size
+    if g < 3:
+        return np.full((X.shape[1], X.shape[1]), np.inf)
+    sums = np.zeros((g, X.shape[1]))
+    np.add.at(sums, inv, X * e[:, None])
+    bread = np.linalg.pinv(X.T @ X)
+    return bread @ (sums.T @ sums) @ bread * (g / (g - 1))

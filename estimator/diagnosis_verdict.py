@@ -33,6 +33,21 @@ def merge_transmission(report: DiagnosisReport, tx: DiagnosisReport) -> None:
     v["status"] = combined_status([v["status"], tv["status"]])
 
 
+def outside_vocabulary(verdict: dict, effect: str, finding: str) -> None:
+    """Take `effect` out of one law's `verdict` (in place) because the runs place its cause
+    outside the vocabulary (`finding` says what it is): the effect leaves `effects` and
+    `shapes`, the finding goes to `outside_vocabulary`, and the status is `partly_explained`
+    when other effects stay, else `unexplained` — the structure the effect's columns removed
+    is not a cause the vocabulary names."""
+    if effect not in verdict["effects"]:
+        return
+    verdict["effects"] = [e for e in verdict["effects"] if e != effect]
+    verdict["shapes"].pop(effect, None)
+    verdict.get("ambiguity_sets", {}).pop(effect, None)
+    verdict.setdefault("outside_vocabulary", []).append(finding)
+    verdict["status"] = "partly_explained" if verdict["effects"] else "unexplained"
+
+
 def combined_status(statuses: list[str]) -> str:
     """One verdict from the laws' verdicts: `none` when every law is `none`; `explained` when
     every law is `none` or `explained`; else `partly_explained` when some law named an effect
@@ -54,10 +69,11 @@ def verdict_summary(report: DiagnosisReport) -> str:
     if v["status"] == "none":
         return ("none — the residual is at the noise floor (no candidate effect improves the "
                 "held-out error significantly)")
+    found = "".join(f"; {f}" for f in v.get("outside_vocabulary", []))
     if not v["effects"]:
         return (f"unexplained — no effect of the vocabulary explains the gap "
                 f"({v.get('structured_share_before', 0.0):.0%} of the held-out residual lies "
-                f"above the noise floor); the flagged regions say where it lies")
+                f"above the noise floor); the flagged regions say where it lies{found}")
     parts = []
     laws = [(report, report["baseline"]["model"])]
     if report.get("transmission"):
@@ -83,4 +99,4 @@ def verdict_summary(report: DiagnosisReport) -> str:
     if v["status"] == "partly_explained":
         left = max(r["verdict"].get("structured_share_after", 0.0) for r, _ in laws)
         text += f"; structure left: up to {left:.0%} of a law's residual above its noise floor"
-    return text
+    return text + found
