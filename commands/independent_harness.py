@@ -109,6 +109,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig J 40 Hz, 0.01° encoder, 4+2 runs", "rig_j",
             {"sample_rate_hz": 40.0, "encoder_res_deg": 0.01, "torque_noise": 250.0},
             few_runs=True),
+    Variant("rig K 300 Hz, 0.001° encoder, 10 ms torque lag", "rig_k",
+            {"sample_rate_hz": 300.0, "encoder_res_deg": 0.001, "torque_noise": 150.0,
+             "torque_lag_s": 0.010}),
+    Variant("rig K 15 Hz, 0.02° encoder, 4+2 runs", "rig_k",
+            {"sample_rate_hz": 15.0, "encoder_res_deg": 0.02, "torque_noise": 300.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
