@@ -2,8 +2,8 @@
 
 The output balance's target is T − τ_L: an offset or drift of the torque channel T and one of
 the load reading τ_L enter it alike (with opposite signs), so that law alone cannot tell them
-apart. The vocabulary's torque_offset is the torque channel's (rig.md); a load cell that drifts
-is outside the vocabulary. The twist–torque law reads T and not τ_L: it takes the offset's
+apart. The vocabulary's torque_offset is the torque channel's (core.effects: "offset of the
+torque channel"); a load cell that drifts is outside the vocabulary. The twist–torque law reads T and not τ_L: it takes the offset's
 columns found on the output law (the `carried` effects of transmission_diagnosis) and fits
 them itself. If the offset is on T, its part that changes within a run (the drift, the
 settling) is found there again with the same size; if it is on τ_L, that law finds none of it.
@@ -54,8 +54,9 @@ def offset_channel(output_model: LinearModel, output_theta: np.ndarray,
     more than z standard errors from it; 'torque' when 0 lies more than z standard errors from
     `share` and it is nearer 1; else 'undecided' (the default reading stays the vocabulary's).
     The twist law's parameters are found by name (`twist_names`; a model's names are unique,
-    estimator.models.LinearModel.with_effect). None when either law lacks the term or the
-    offset does not vary within a run."""
+    estimator.models.LinearModel.with_effect). None when either law lacks the term, the
+    offset does not vary within a run, or a covariance is not finite (fewer than 3 blocks):
+    no claim is made."""
     found = _columns(output_model, t, run)
     if found is None or not found[0] or not set(found[0]) <= set(twist_names):
         return None
@@ -73,13 +74,14 @@ def offset_channel(output_model: LinearModel, output_theta: np.ndarray,
     share = float(a @ b_tw)
     se_out = float(np.sqrt(max(a @ s_out @ a, 0.0)))
     se_tw = float(np.sqrt(max(a @ s_tw @ a, 0.0)))
+    if not (np.isfinite(se_out) and np.isfinite(se_tw)):
+        return None
     se_diff = float(np.hypot(se_out, se_tw))
-    finite = np.isfinite(se_out) and np.isfinite(se_tw)
     z_drift = 1.0 / se_out if se_out > 0 else float("inf")
     z_not_torque = abs(share - 1.0) / se_diff if se_diff > 0 else float("inf")
     z_not_load = abs(share) / se_tw if se_tw > 0 else float("inf")
     channel = "undecided"
-    if finite and z_drift > z:
+    if z_drift > z:
         if share < 0.5 and z_not_torque > z:
             channel = "torque_load"
         elif share >= 0.5 and z_not_load > z:

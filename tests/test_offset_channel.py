@@ -86,3 +86,22 @@ def test_block_robust_covariance_widens_on_a_correlated_residual():
     # white: the sandwich agrees with least squares; AR(1) at 0.9: √((1+φ)/(1−φ)) ≈ 4.4 wider
     assert 0.7 < ratio(white) < 1.4
     assert 3.0 < ratio(ar) < 6.0
+
+
+def test_no_claim_without_a_finite_covariance():
+    """Fewer than 3 batch-means blocks give an infinite covariance: no reading is claimed."""
+    from estimator.diagnosis_channel import offset_channel
+    from estimator.models import model_from_spec
+    model = model_from_spec("eq4").with_effect("torque_offset")
+    n = len(model.param_names)
+    theta = np.zeros(n)
+    theta[model.param_names.index("drift")] = 2.0
+    t = np.linspace(0.0, 90.0, 901)
+    run = np.zeros(t.size, dtype=int)
+    finite = np.eye(n) * 1e-6
+    names = ["c0", "drift"]
+    ok = offset_channel(model, theta, finite, names, np.array([0.0, 0.0]), np.eye(2) * 1e-6,
+                        t, run, 3.0)
+    assert ok is not None and ok["channel"] == "torque_load"
+    assert offset_channel(model, theta, np.full((n, n), np.inf), names, np.array([0.0, 0.0]),
+                          np.eye(2) * 1e-6, t, run, 3.0) is None
