@@ -253,6 +253,16 @@ def _interp(t, tt, tv):
 
 
 @njit(cache=True)
+def _play_step(p, db, r):
+    """A play (stop) operator's output after its input moves to db: p held within db ± r."""
+    if p < db - r:
+        return db - r
+    if p > db + r:
+        return db + r
+    return p
+
+
+@njit(cache=True)
 def _sgn(x):
     if x > 0.0:
         return 1.0
@@ -384,13 +394,7 @@ def _rhs(t, x, P, EC, ES, TT, TV, FA, FB, play, dx, out):
             # stop operators (elastic-perfectly-plastic elements): S = db - play(db)
             xhy = 0.0
             for i in range(play.shape[0]):
-                ri = ES[E_HYST, 2 + i]
-                p = play[i]
-                if p < db - ri:
-                    p = db - ri
-                elif p > db + ri:
-                    p = db + ri
-                xhy += ES[E_HYST, 6 + i] * (db - p)
+                xhy += ES[E_HYST, 6 + i] * (db - _play_step(play[i], db, ES[E_HYST, 2 + i]))
         ttr = tel + h * kfac * k0 * xhy
     else:
         ttr = tel
@@ -587,14 +591,8 @@ def _integrate(x0, n_fine, h, P, EC, ES, TT, TV, FA, FB):
             x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         if hplay:
             db, ddb, sl = _twist_eff(x[X_Q], x[X_V], x[X_U], x[X_W], EC, ES)
-            for i in range(4):
-                ri = ES[E_HYST, 2 + i]
-                p = play[i]
-                if p < db - ri:
-                    p = db - ri
-                elif p > db + ri:
-                    p = db + ri
-                play[i] = p
+            for i in range(play.shape[0]):
+                play[i] = _play_step(play[i], db, ES[E_HYST, 2 + i])
     _rhs(n_fine * h, x, P, EC, ES, TT, TV, FA, FB, play, k1, out)
     for j in range(N_R):
         rec[n_fine, j] = out[j]
