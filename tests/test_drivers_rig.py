@@ -30,12 +30,14 @@ def with_plc(body):
 def test_repeated_snapshots_are_counted_not_recorded():
     async def body(rig, live, lock):
         async with rig.session():
-            await asyncio.sleep(0.2)                 # the emulator does not advance
-            assert len(rig.plc) == 1 and rig.repeats >= 20
-            for _ in range(5):
+            # the emulator does not advance: polls repeat the one snapshot (waited for by
+            # count, not by wall time: a loaded host polls late)
+            assert await await_for(lambda: rig.repeats >= 20, timeout=10.0)
+            assert len(rig.plc) == 1
+            for k in range(5):
                 with lock:
                     live.advance(0.01)
-                await asyncio.sleep(0.02)
+                assert await await_for(lambda: len(rig.plc) == k + 2, timeout=5.0)
             times = list(rig.plc["rig_time"])
             assert len(times) == 6 and all(b > a for a, b in zip(times, times[1:]))
             assert rig.poll_errors == 0 and rig.plc["latency"][0] > 0
