@@ -70,6 +70,7 @@ def _parse_rename(text: str | None) -> dict[str, str]:
 
 def format_text(rep: dict) -> str:
     """A short human-readable summary of a diagnosis report."""
+    from estimator.diagnosis_coverage import coverage_line
     b, v = rep["baseline"], rep["verdict"]
     lines = [f"nominal model {b['model']}: RMSE train {b['rmse_train']:.4g}, held-out "
              f"{b['rmse_test']:.4g}",
@@ -85,6 +86,9 @@ def format_text(rep: dict) -> str:
         tb = tx["baseline"]
         lines.append(f"twist–torque law {tb['model']}: RMSE train {tb['rmse_train']:.4g}, "
                      f"held-out {tb['rmse_test']:.4g}")
+    cov = v.get("held_out_coverage") or {}
+    if cov:
+        lines.append(f"held-out runs' share of the training runs' range: {coverage_line(cov)}")
     lines.append("candidates (largest held-out shrinkage first; the law each was added to):")
     for c in rep["candidates"]:
         shape = ",".join(f"{k}={v:.4g}" for k, v in c["shape"].items())

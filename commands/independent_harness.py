@@ -38,6 +38,7 @@ import numpy as np
 
 from commands.diagnosis_harness import NOT_EXPLAINED
 from core.effects import VOCABULARY
+from estimator.diagnosis_coverage import short_coverage
 
 TRANSMISSION_EFFECTS = tuple(n for n, e in VOCABULARY.items() if e.acts_on == "transmission")
 
@@ -246,7 +247,8 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
             "first_alike": alike.get(first, []) if first else [],
             "extra": [e for e in rep["verdict"]["effects"]
                       if e != effect and effect not in alike.get(e, [])],
-            "shrinkages": _law_shrinkages(rep), "seconds": seconds}
+            "shrinkages": _law_shrinkages(rep), "seconds": seconds,
+            "coverage_short": short_coverage(rep["verdict"].get("held_out_coverage") or {})}
 
 
 def cells_for(variant: Variant, seeds: list[int], enrs: tuple[float, ...],
@@ -340,6 +342,11 @@ def score(cells: list[dict]) -> dict[str, Any]:
     err = [abs(a - p) for c in single for a, p in c["shrinkages"]]
     out["shrinkage_abs_error_median"] = float(np.median(err)) if err else None
     out["errors"] = int(sum(c["status"] == "error" for c in cells))
+    # how specific the held-out coverage note is: on the misses, and on the hits beside them
+    noted = [[bool(c.get("coverage_short")) for c in ge1 if _hit(c) == hit]
+             for hit in (False, True)]
+    out["coverage_noted"] = {"misses": [sum(noted[0]), len(noted[0])],
+                             "hits": [sum(noted[1]), len(noted[1])]}
     out["by_variant"] = {}
     for v in sorted({c["variant"] for c in cells}):
         cv = [c for c in cells if c["variant"] == v]
@@ -410,6 +417,11 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
     if s.get("top1_through_ambiguity_set"):
         lines.append(f"(top-1 counts {s['top1_through_ambiguity_set']} single-effect campaigns "
                      "whose effect was named in the first effect's ambiguity set)")
+    if s.get("coverage_noted"):
+        (km, nm), (kh, nh) = s["coverage_noted"]["misses"], s["coverage_noted"]["hits"]
+        lines.append(f"(the verdict says the held-out runs cover too little of the training "
+                     f"runs' range of an input on {km} of {nm} misses and {kh} of {nh} hits at "
+                     "ENR >= 1)")
     lines += ["", "top-1 at ENR >= 1 by family and form:"]
     for e, forms in sorted(s["top1_by_form_enr_ge_1"].items()):
         lines.append(f"  {e:26} " + ", ".join(f"{f} {v:.2f}" for f, v in forms.items()))
@@ -425,5 +437,7 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
         for c in missed[:40]:
             lines.append(f"  {c['variant'][:10]:10} seed {c['seed']:>5} {c['kind']:6} "
                          f"{str(c['effect']):24} {str(c['form']):14} ENR {c['enr']:.1f}: "
-                         f"{c['status']} {c.get('error') or c['effects']}")
+                         f"{c['status']} {c.get('error') or c['effects']}"
+                         + (f" [held-out coverage short: {', '.join(c['coverage_short'])}]"
+                            if c.get("coverage_short") else ""))
     return "\n".join(lines)

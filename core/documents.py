@@ -284,6 +284,15 @@ class RigState(TypedDict):
 
 # --- the gap diagnosis's report -------------------------------------------------------------------
 
+class CoverageEntry(TypedDict):
+    """One input's ranges on the training and held-out samples a law kept, and the share of the
+    training range the held-out range overlaps (estimator.diagnosis_coverage)."""
+    training: list[float]
+    held_out: list[float]
+    fraction: float
+    unit: str
+
+
 class DiagnosisVerdict(TypedDict, total=False):
     """The diagnosis's verdict (estimator.diagnosis; the keys after `summary` only when a
     twist–torque law was diagnosed too, estimator.diagnosis_verdict.merge_transmission)."""
@@ -307,6 +316,9 @@ class DiagnosisVerdict(TypedDict, total=False):
     (estimator.diagnosis_channel.offset_channel), when a twist–torque law was diagnosed."""
     outside_vocabulary: list[str]
     """Causes the runs place outside the vocabulary (an effect taken out of `effects` for it)."""
+    held_out_coverage: dict[str, CoverageEntry]
+    """Per input (q, qd, temp_joint, abs_torque_load = |τ_L|): how much of the training runs'
+    range the held-out runs reach, on the output law's kept samples."""
 
 
 class DiagnosisReport(TypedDict, total=False):

@@ -76,6 +76,7 @@ from estimator.diagnosis_candidates import (_candidate_models, _contribution, _e
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
                                             _score, predicted_shrinkage, run_consistency)
 from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
+from estimator.diagnosis_coverage import held_out_coverage
 from estimator.diagnosis_data import OPTIONAL_SIGNALS, _available, _pool, _slice, base_model
 from estimator.diagnosis_floors import _noise_floor, sensor_floor
 from estimator.diagnosis_inputs import (below_drive_train_mode, lag_corrected,
@@ -436,7 +437,8 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                     "noise_floor_rms": float(np.sqrt(floor)),
                     "noise_floor_source": ("sensors" if floor_sensor and floor_sensor > floor_white
                                            else "first differences"),
-                    "residual_after": {k: after[k] for k in ("structured", "reasons")}},
+                    "residual_after": {k: after[k] for k in ("structured", "reasons")},
+                    "held_out_coverage": held_out_coverage(tr, te)},
         "shrinkage": {"overall": {"rmse_before": _rmse(base_fit.e_test),
                                   "rmse_after": _rmse(cur.e_test), "shrinkage": overall[0],
                                   "ci95": [overall[1], overall[2]],

@@ -4,6 +4,7 @@ left, and the merge of the output-side and the twist–torque laws' diagnoses in
 from __future__ import annotations
 
 from core.documents import DiagnosisReport
+from estimator.diagnosis_coverage import coverage_note
 
 
 def merge_transmission(report: DiagnosisReport, tx: DiagnosisReport) -> None:
@@ -64,16 +65,18 @@ def combined_status(statuses: list[str]) -> str:
 def verdict_summary(report: DiagnosisReport) -> str:
     """The verdict in one sentence, the same in the text output and the JSON (verdict.summary):
     what was chosen, on which law, how far it shrinks that law's held-out error, what structure
-    is left, and, when nothing was chosen, that no candidate is a cause."""
+    is left, and, when nothing was chosen, that no candidate is a cause; last, the inputs whose
+    range the held-out runs cover too little to test an effect a nominal parameter absorbs."""
     v = report["verdict"]
+    short = coverage_note(v.get("held_out_coverage") or {})
     if v["status"] == "none":
         return ("none — the residual is at the noise floor (no candidate effect improves the "
-                "held-out error significantly)")
+                "held-out error significantly)" + short)
     found = "".join(f"; {f}" for f in v.get("outside_vocabulary", []))
     if not v["effects"]:
         return (f"unexplained — no effect of the vocabulary explains the gap "
                 f"({v.get('structured_share_before', 0.0):.0%} of the held-out residual lies "
-                f"above the noise floor); the flagged regions say where it lies{found}")
+                f"above the noise floor); the flagged regions say where it lies{found}{short}")
     parts = []
     laws = [(report, report["baseline"]["model"])]
     if report.get("transmission"):
@@ -99,4 +102,4 @@ def verdict_summary(report: DiagnosisReport) -> str:
     if v["status"] == "partly_explained":
         left = max(r["verdict"].get("structured_share_after", 0.0) for r, _ in laws)
         text += f"; structure left: up to {left:.0%} of a law's residual above its noise floor"
-    return text + found
+    return text + found + short

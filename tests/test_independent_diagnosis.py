@@ -168,7 +168,9 @@ def test_independent_scores_and_the_side_by_side_table():
                    ["gear_ripple"], ((0.1, 0.3),)),
              _cell("single", "backlash", "sharp", 0.5, "explained", ["backlash"], "backlash"),
              _cell("oov", "periodic_disturbance", "sine", 2.0, "unexplained", [], None, shr=())]
+    cells[3]["coverage_short"] = ["q"]   # the miss's verdict said its split could not test it
     s = score(cells)
+    assert s["coverage_noted"] == {"misses": [1, 1], "hits": [0, 1]}
     assert s["none_verdict"] == 0.5 and s["top1"] == {"0.5": 1.0, "1.0": 0.5}
     assert s["top1_by_form_enr_ge_1"] == {"stribeck": {"gauss": 1.0, "lorentz": 0.0}}
     assert s["extra_effect_named"] == pytest.approx(2 / 5) and s["oov_not_explained"] == 1.0
@@ -180,6 +182,8 @@ def test_independent_scores_and_the_side_by_side_table():
                                      "seeds": 1, "first_seed": 31, "seconds": 1.0})
     assert "own-emulator minus independent top-1" in text and " 0.500  <= 0.05  NO" in text
     assert "cells missed (2)" in text   # the stribeck miss and the none cell that named one
+    assert "range of an input on 1 of 1 misses and 0 of 1 hits at ENR >= 1)" in text
+    assert "['gear_ripple'] [held-out coverage short: q]" in text
 
 
 def test_a_campaign_the_diagnosis_fails_on_is_scored_as_a_failure(monkeypatch):
