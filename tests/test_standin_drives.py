@@ -13,7 +13,7 @@ import canopen
 import pytest
 
 from daq.rig import Rig
-from drivers_harness import REPO, StandinProcess, await_for
+from drivers_harness import REPO, SLACK_S, SLACK_STANDIN, StandinProcess, await_for
 from core import drive_od as D
 from daq.settings import Settings
 from simulators.drives import FAULT_INJECTION
@@ -34,9 +34,9 @@ def settings_for(sp, **kw):
 
 @pytest.fixture
 def tolerant_standin():
-    """A stand-in whose PLC watchdog allows 2 s of heartbeat silence: for tests of the data
+    """A stand-in whose PLC watchdog allows SLACK_S of heartbeat silence: for tests of the data
     streams, not of the watchdogs (a stall of a loaded CI host must not trip them)."""
-    with StandinProcess(["--watchdog", "2"]) as sp:
+    with StandinProcess(SLACK_STANDIN) as sp:
         yield sp
 
 
@@ -53,7 +53,8 @@ def test_drives_enabled_tpdos_at_rate_and_can_logger_records(tolerant_standin, t
 
         async def body():
             # the watchdogs are tested by the drive-loss tests below and in test_standin_interlocks
-            rig = Rig(settings_for(standin, plc_link_timeout=2.0, drive_heartbeat_timeout=2.0))
+            rig = Rig(settings_for(standin, plc_link_timeout=SLACK_S,
+                                   drive_heartbeat_timeout=SLACK_S))
             async with rig.session():
                 assert [d.state for d in rig.drives.drives] == ["OPERATION ENABLED"] * 3, (
                     [(e.kind, e.message) for e in rig.events])

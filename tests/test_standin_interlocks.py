@@ -119,8 +119,11 @@ def test_operator_estop():
 
 
 def test_make_safe_runs_when_the_acquisition_code_raises():
-    with StandinProcess([]) as sp:
-        s = Settings(plc_port=sp.plc_port, can_port=sp.can_port)
+    # the slack timeouts: a watchdog tripped by a stalled host would make the rig safe before
+    # the scheme's own error does, and that error is the point here
+    with StandinProcess(SLACK_STANDIN) as sp:
+        s = Settings(plc_port=sp.plc_port, can_port=sp.can_port, plc_link_timeout=SLACK_S,
+                     drive_heartbeat_timeout=SLACK_S)
         rig = Rig(s)
 
         async def main():

@@ -16,7 +16,7 @@ import pytest
 from daq.drives import DriveMaster
 from daq.plc import PlcClient
 from daq.rig import Rig, _cancel_all
-from drivers_harness import StandinProcess, await_for, free_port
+from drivers_harness import SLACK_S, SLACK_STANDIN, StandinProcess, await_for, free_port
 from core import drive_od as D
 from core.plc_map import REGISTER_MAP
 from daq.settings import Settings
@@ -30,7 +30,9 @@ SB = REGISTER_MAP.signals["status_bits"]
 
 @pytest.fixture
 def plc_only():
-    with StandinProcess(["--no-can"]) as sp:
+    """The PLC alone, its watchdog at SLACK_S: no test using it is about that watchdog (the
+    heartbeat-loss test below starts its own stand-in at the default)."""
+    with StandinProcess(["--no-can", *SLACK_STANDIN]) as sp:
         yield sp
 
 
@@ -247,7 +249,7 @@ def test_homing_over_modbus_zeroes_the_encoder_and_reports_homed(plc_only):
     """`rig emulate`'s PLC serves the map's `home` command: Rig.home sets it, the PLC reports
     `homing` then `homed`, and the status block's q reads the homed zero."""
     async def body():
-        rig = Rig(Settings(plc_port=plc_only.plc_port, node_ids=()))
+        rig = Rig(Settings(plc_port=plc_only.plc_port, node_ids=(), plc_link_timeout=SLACK_S))
         async with rig.session():
             st = await rig.plc_client.read_status()
             assert not int(st["status_bits"]) & (SB.bit("homed") | SB.bit("homing"))
