@@ -3,8 +3,8 @@
 The diagnosis names an effect only when it improves the held-out error. An effect that a
 nominal parameter absorbs over the held-out runs' range cannot do that, however clearly the
 training runs show it: a constant torque offset is fitted by the gravity column g·cos q wherever
-the joint stays near the zero (cos q ≈ 1), so held-out runs that never travel far test nothing
-that training runs travelling to ±2.3 rad reveal (docs/diagnosis.md, "Rig K's constant offset at
+the joint stays near the zero (cos q ≈ 1), so held-out runs that never travel far cannot test
+what training runs that do travel far reveal (docs/diagnosis.md, "Rig K's constant offset at
 300 Hz"). The report states, per input the candidate effects depend on, the part of the training
 runs' range the held-out runs reach, and the verdict's summary says which inputs fall short, so a
 `none` on a split that cannot test an effect is not read as its absence."""
