@@ -3,10 +3,11 @@
 The output balance's target is T − τ_L: an offset or drift of the torque channel T and one of
 the load reading τ_L enter it alike (with opposite signs), so that law alone cannot tell them
 apart. The vocabulary's torque_offset is the torque channel's (core.effects: "offset of the
-torque channel"); a load cell that drifts is outside the vocabulary. The twist–torque law reads T and not τ_L: it takes the offset's
-columns found on the output law (the `carried` effects of transmission_diagnosis) and fits
-them itself. If the offset is on T, its part that changes within a run (the drift, the
-settling) is found there again with the same size; if it is on τ_L, that law finds none of it.
+torque channel"); a load cell that drifts is outside the vocabulary. The twist–torque law reads
+T and not τ_L: it takes the offset's columns found on the output law (the `carried` effects of
+transmission_diagnosis) and fits them itself. If the offset is on T, its part that changes
+within a run (the drift, the settling) is found there again with the same size; if it is on
+τ_L, that law finds none of it.
 The part constant within a run is not compared: the twist law sets each run's zero of the
 twist, which takes it (estimator.diagnosis_transmission.twist_zeros)."""
 

@@ -41,11 +41,10 @@ def tolerant_standin():
 
 
 def test_drives_enabled_tpdos_at_rate_and_can_logger_records(tolerant_standin, tmp_path):
-    standin = tolerant_standin
     log_file = tmp_path / "traffic.log"
     logger = subprocess.Popen(
-        [sys.executable, "-m", "can.logger", "-i", "socketcand", "-c", "can0",
-         "-f", str(log_file), "--bus-kwargs", "host=127.0.0.1", f"port={standin.can_port}"],
+        [sys.executable, "-m", "can.logger", "-i", "socketcand", "-c", "can0", "-f",
+         str(log_file), "--bus-kwargs", "host=127.0.0.1", f"port={tolerant_standin.can_port}"],
         cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         time.sleep(1.0)                                   # logger connected before the master
@@ -53,7 +52,7 @@ def test_drives_enabled_tpdos_at_rate_and_can_logger_records(tolerant_standin, t
 
         async def body():
             # the watchdogs are tested by the drive-loss tests below and in test_standin_interlocks
-            rig = Rig(settings_for(standin, plc_link_timeout=SLACK_S,
+            rig = Rig(settings_for(tolerant_standin, plc_link_timeout=SLACK_S,
                                    drive_heartbeat_timeout=SLACK_S))
             async with rig.session():
                 assert [d.state for d in rig.drives.drives] == ["OPERATION ENABLED"] * 3, (
