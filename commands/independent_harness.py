@@ -116,6 +116,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig K 15 Hz, 0.02° encoder, 4+2 runs", "rig_k",
             {"sample_rate_hz": 15.0, "encoder_res_deg": 0.02, "torque_noise": 300.0},
             few_runs=True),
+    Variant("rig L 750 Hz, 0.002° encoder, 3 ms torque lag", "rig_l",
+            {"sample_rate_hz": 750.0, "encoder_res_deg": 0.002, "torque_noise": 180.0,
+             "torque_lag_s": 0.003}),
+    Variant("rig L 30 Hz, 0.015° encoder, 4+2 runs", "rig_l",
+            {"sample_rate_hz": 30.0, "encoder_res_deg": 0.015, "torque_noise": 350.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
