@@ -249,9 +249,10 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         raise ValueError("the diagnosis needs a velocity (or position) and a torque channel")
     for part, sig in (("training", tr), ("held-out", te)):
         if not sig["t"].size:
-            why = (f"{n_transient} samples lie within {opt.transient_s:g} s of near-zero speed "
-                   "(|q̇| below 5 % of the campaign's top speed: one run much faster than the "
-                   "others makes that every other run's) and are left out"
+            why = (f"{n_transient} samples lie at or within {opt.transient_s:g} s of a rest, "
+                   "near-zero speed (|q̇|, or the mean speed over that time, below 5 % of the "
+                   "campaign's top speed: one run much faster than the others makes that every "
+                   "other run's) and are left out"
                    if n_transient else f"every {part} sample misses a channel the law needs")
             raise ValueError(f"the {law} has no {part} sample left to diagnose on: {why}")
 

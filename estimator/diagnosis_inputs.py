@@ -21,36 +21,55 @@ from estimator.preprocess import PrepOptions
 
 
 def transient_mask(sig: dict, window_s: float, angle_step: float = 0.0) -> np.ndarray:
-    """True on the samples within window_s [s] of one where the joint is at rest or passing
-    through zero speed (|q̇| below 5 % of the campaign's top speed, the regions' "near zero
-    speed"): a start, a stop, a reversal.
+    """True on the samples the output law leaves out around rests: a start, a stop, a reversal.
     There a real joint sticks, presslides and breaks away (dynamic friction), its friction at
     rest is whatever holds it, and no static friction form of the vocabulary models that — it
     would otherwise pass for a Stribeck rise, or leave structure no candidate can explain.
-    With the output encoder's step `angle_step` [rad] > 0, a sample is also at rest when the
-    angle moves less than that band over a window of 2·angle_step/band (the time the encoder
-    needs to resolve it; at least two samples) around it: a velocity reading that lags or is
-    smoothed (a drive's observer) can pass a short stop by — a load released at speed slips the
-    joint forward, stops it for a tenth of a second and lets it go on — while the angle shows it."""
+    The band is the regions' "near zero speed": 5 % of the campaign's top speed |q̇|.
+    - A rest is where the motion rests: the output's mean speed over ±window_s [s] (the angle
+      it travels; the speed reading's mean when the runs carry no angle) lies in the band. The
+      samples within window_s of a rest are left out.
+    - Inside a motion, a sample whose own speed lies in the band is left out alone, without
+      the window: a joint driven at a steady speed on a friction curve that falls with speed
+      (Stribeck) sticks and slips, and the slips between its sticks are the sliding the curve
+      defines. Leaving a window around every stick would take the whole run, and with it the
+      evidence of the curve.
+    - With the output encoder's step `angle_step` [rad] > 0, a sample is also at rest when the
+      angle moves less than the band over a window of 2·angle_step/band (the time the encoder
+      needs to resolve it; at least two samples) around it: a velocity reading that lags or is
+      smoothed (a drive's observer) can pass a short stop by while the angle shows it. Such a
+      stop inside a motion is left out alone, like a stick."""
     out = np.zeros(sig["t"].size, dtype=bool)
     band = 0.05 * float(np.quantile(np.abs(sig["qd"]), 0.99))
     for r in np.unique(sig["run"]):
         idx = np.flatnonzero(sig["run"] == r)
         v, t = sig["qd"][idx], sig["t"][idx]
         slow = np.abs(v) <= band
-        if angle_step > 0 and band > 0 and "q" in sig and t.size > 2:
-            q = sig["q"][idx]
-            half = 0.5 * max(2.0 * angle_step / band, 2.0 * float(np.median(np.diff(t))))
-            moved = np.interp(t + half, t, q) - np.interp(t - half, t, q)
-            inside = (t - half >= t[0]) & (t + half <= t[-1])
-            slow |= inside & (np.abs(moved) <= band * 2.0 * half)
-        if not slow.any():
+        if t.size < 3:
+            out[idx] = slow
             continue
-        # dilate the slow samples by window_s on both sides
-        ts = t[slow]
-        lo = np.searchsorted(ts, t - window_s, side="left")
-        hi = np.searchsorted(ts, t + window_s, side="right")
-        out[idx] = hi > lo
+        dt = float(np.median(np.diff(t)))
+        lo_t, hi_t = np.maximum(t - window_s, t[0]), np.minimum(t + window_s, t[-1])
+        span = np.maximum(hi_t - lo_t, dt)
+        if "q" in sig:
+            q = sig["q"][idx]
+            mean_speed = (np.interp(hi_t, t, q) - np.interp(lo_t, t, q)) / span
+            if angle_step > 0 and band > 0:
+                half = 0.5 * max(2.0 * angle_step / band, 2.0 * dt)
+                moved = np.interp(t + half, t, q) - np.interp(t - half, t, q)
+                inside = (t - half >= t[0]) & (t + half <= t[-1])
+                slow |= inside & (np.abs(moved) <= band * 2.0 * half)
+        else:
+            c = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+            mean_speed = (np.interp(hi_t, t, c) - np.interp(lo_t, t, c)) / span
+        rest = np.abs(mean_speed) <= band
+        out[idx] = slow
+        if rest.any():
+            # dilate the rests by window_s on both sides
+            ts = t[rest]
+            lo = np.searchsorted(ts, t - window_s, side="left")
+            hi = np.searchsorted(ts, t + window_s, side="right")
+            out[idx] |= hi > lo
     return out
 
 

@@ -30,8 +30,10 @@ class DiagnosisOptions:
     nominal residual holds this many times the power a white residual would put between 0.5·f₁
     and 1.5·f₁ (estimator.diagnosis_inputs.below_drive_train_mode); docs/diagnosis.md."""
     transient_s: float = 0.5
-    """The output-side law leaves out the samples within this time [s] of a velocity reversal
-    and of a start from rest (estimator.diagnosis_inputs.transient_mask); 0 keeps them."""
+    """The output-side law leaves out the samples within this time [s] of a rest — a start, a
+    stop, a reversal: where the mean speed over ±transient_s is near zero — and, alone, the
+    samples near zero speed inside a motion (estimator.diagnosis_inputs.transient_mask); 0
+    keeps them all."""
     block: int | None = None
     """Samples per batch-means block; None: max(10, √n per run)."""
     ripple_orders: tuple[int, ...] = tuple(range(2, 121))

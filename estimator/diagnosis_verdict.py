@@ -73,14 +73,18 @@ def verdict_summary(report: DiagnosisReport) -> str:
         return ("none — the residual is at the noise floor (no candidate effect improves the "
                 "held-out error significantly)" + short)
     found = "".join(f"; {f}" for f in v.get("outside_vocabulary", []))
-    if not v["effects"]:
-        return (f"unexplained — no effect of the vocabulary explains the gap "
-                f"({v.get('structured_share_before', 0.0):.0%} of the held-out residual lies "
-                f"above the noise floor); the flagged regions say where it lies{found}{short}")
-    parts = []
     laws = [(report, report["baseline"]["model"])]
     if report.get("transmission"):
         laws.append((report["transmission"], report["transmission"]["baseline"]["model"]))
+    if not v["effects"]:
+        # each law's own share: the merged verdict keeps the output law's, and a campaign the
+        # twist–torque law alone leaves unexplained must not read as 0 % above the floor
+        shares = ", ".join(f"{r['verdict'].get('structured_share_before', 0.0):.0%} on {law}"
+                           for r, law in laws)
+        return (f"unexplained — no effect of the vocabulary explains the gap (the part of the "
+                f"held-out residual above the noise floor: {shares}); the flagged regions say "
+                f"where it lies{found}{short}")
+    parts = []
     models = v.get("effect_models") or {}
     sets = v.get("ambiguity_sets") or {}
 

@@ -263,13 +263,16 @@ form it is a shape parameter (fixed, or searched on a grid by the caller) and th
 identified is another one: backlash's dead-zone half-width b [rad] shapes the column
 backlash_twist(Δ, b) − Δ, whose coefficient k_bl [N·m/rad] is identified (≈ the stiffness)."""
 
-PHYSICAL_SIGN: dict[str, tuple[str, int]] = {"backlash": ("k_bl", 1), "hysteresis": ("k_h", 1)}
+PHYSICAL_SIGN: dict[str, tuple[str, int]] = {"backlash": ("k_bl", 1), "hysteresis": ("k_h", 1),
+                                             "stribeck": ("f_s", 1)}
 """An effect's identified coefficient and the sign its physics allows: a dead zone takes the
 stiffness away inside its gap, k_bl > 0 (a negative k_bl makes the centre stiffer than the
 rest, which no backlash does; a misplaced knee of the compliance curve does); a hysteretic
 element is passive, its loop dissipates energy, k_h > 0 (a negative k_h runs the loop the other
 way round, torque lower on loading than on unloading: what a torque reading lagging the twist
-draws, not a material)."""
+draws, not a material); a Stribeck curve is friction that rises above the Coulomb level toward
+rest, f_s > 0 (a negative f_s is friction that falls short of it at low speed: a presliding
+bearing rebuilding its friction after a stop, not a Stribeck curve)."""
 
 
 def physical_objection(m: LinearModel, theta: np.ndarray) -> str | None:

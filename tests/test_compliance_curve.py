@@ -177,3 +177,35 @@ def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
     # and without the steps stated there is no telling at all
     assert soft_centre(sig, knees, opt, theta / 3.0) is None
     assert soft_centre(sig, knees, opt, None) is None
+
+
+def test_friction_that_falls_short_of_coulomb_at_low_speed_is_not_stribeck():
+    """A Stribeck curve is friction that rises above the Coulomb level toward rest (f_s > 0).
+    Friction short of it at low speed (f_s < 0: a presliding bearing rebuilding its friction
+    after a stop) is never a significant Stribeck candidate; the same curve the right way up
+    is."""
+    from core.effects import stribeck_torque
+    from estimator.diagnosis_candidates import _best_shape, _fit, _score
+    from estimator.models import eq4
+    opt = DiagnosisOptions()
+
+    def balance(sign: int, seed: int) -> dict:
+        rng = np.random.default_rng(seed)
+        t = np.linspace(0.0, 240.0, 12000)
+        w = 2 * np.pi / 24.0
+        q, qd, qdd = 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t), -0.3 * w * w * np.sin(w * t)
+        torque = (6700.0 * qdd + 9.81 * (21.0 * np.sin(q) - 34.0 * np.cos(q)) + 8800.0 * qd
+                  + 2300.0 * np.sign(qd) + stribeck_torque(qd, sign * 1500.0, 0.01, 1e-6)
+                  + 100.0 * rng.standard_normal(t.size))
+        return {"t": t, "q": q, "qd": qd, "qdd": qdd, "torque": torque,
+                "torque_load": np.zeros(t.size), "run": np.full(t.size, seed, dtype=int)}
+    for sign in (-1, 1):
+        tr, te = balance(sign, 0), balance(sign, 1)
+        m = eq4()
+        models = [({"v_s": v}, m.with_effect("stribeck", v_s=v, delta=2.0))
+                  for v in (0.005, 0.01, 0.02)]
+        f = _best_shape(models, tr, te)
+        f_s = f.theta[list(f.model.param_names).index("f_s")]
+        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
+        assert np.sign(f_s) == sign, f_s
+        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row

@@ -15,7 +15,7 @@ import pytest
 from core.run import RunData
 from core.runfile import RunFileError, read_run, write_run
 from estimator.diagnosis import diagnose
-from estimator.diagnosis_verdict import combined_status
+from estimator.diagnosis_verdict import combined_status, verdict_summary
 from estimator.models import linear_model
 
 EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps"
@@ -127,6 +127,23 @@ def test_combined_status_never_reads_as_a_cause_when_structure_remains():
     assert combined_status(["explained", "unexplained"]) == "partly_explained"
     assert combined_status(["partly_explained", "none"]) == "partly_explained"
     assert combined_status(["unexplained", "none"]) == "unexplained"
+
+
+def test_an_unexplained_summary_gives_each_laws_share_above_the_floor():
+    """Rig L at 750 Hz (seed 1601, nothing withheld) was `unexplained` on its twist–torque law
+    alone, 80 % of that law's held-out residual above its floor, and the summary said `0 % of
+    the held-out residual lies above the noise floor`: the output law's share."""
+    report = {"verdict": {"status": "unexplained", "effects": [],
+                          "structured_share_before": 0.0},
+              "baseline": {"model": "eq4"},
+              "transmission": {"verdict": {"status": "unexplained", "effects": [],
+                                           "structured_share_before": 0.804},
+                               "baseline": {"model": "eq5+stiffening"}}}
+    text = verdict_summary(report)
+    assert text.startswith("unexplained — no effect of the vocabulary explains the gap"), text
+    assert "0% on eq4, 80% on eq5+stiffening" in text, text
+    del report["transmission"]
+    assert "0% on eq4)" in verdict_summary(report)
 
 
 def test_a_lag_taken_out_leaves_the_noise_at_the_sd_its_sheet_states():

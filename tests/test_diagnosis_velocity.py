@@ -63,12 +63,46 @@ def _stall_sig(step: float) -> dict:
 
 
 def test_the_transient_mask_sees_a_stop_in_the_angle_that_the_velocity_misses():
+    """The stop lies inside a motion (the mean speed over ±0.5 s stays at 85 % of the run's),
+    so it is left out alone, like a stick of stick–slip."""
     sig = _stall_sig(1e-5)
     assert not transient_mask(sig, 0.5).any()
     m = transient_mask(sig, 0.5, angle_step=1e-5)
     t = sig["t"]
-    assert m[(t > 4.7) & (t < 5.5)].all()
-    assert not m[(t < 4.4) | (t > 5.8)].any()
+    assert m[(t > 5.02) & (t < 5.13)].all()
+    assert not m[(t < 4.9) | (t > 5.25)].any()
+
+
+def _stick_slip_sig() -> dict:
+    """100 Hz, 30 s: at rest for 1 s, a ramp to 0.01 rad/s by 2 s, then steady sliding with a
+    0.05 s stick every second from 4 to 10 s (the speed reading at 0 there), and from 16 s a
+    reversal: the speed falls linearly through zero at 20 s to −0.01 rad/s at 24 s."""
+    t = np.arange(0.0, 30.0, 0.01)
+    v = np.clip(t - 1.0, 0.0, 1.0) * 0.01
+    v = np.where(t >= 16.0, np.clip(0.01 * (20.0 - t) / 4.0, -0.01, 0.01), v)
+    stick = (t >= 4.0) & (t < 10.0) & ((t % 1.0) < 0.05)
+    v = np.where(stick, 0.0, v)
+    q = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    return {"t": t, "q": q, "qd": v, "run": np.zeros(t.size, dtype=int)}
+
+
+def test_the_transient_mask_leaves_a_stick_inside_a_motion_out_alone_and_a_rest_with_its_window():
+    """A joint driven at a steady speed on a friction curve that falls with speed sticks and
+    slips; the slips are the sliding a Stribeck curve is seen on. Leaving 0.5 s around every
+    stick (the rule before) would take every sample between 3.5 and 10.5 s."""
+    sig = _stick_slip_sig()
+    t = sig["t"]
+    m = transient_mask(sig, 0.5)
+    stick = (t >= 4.0) & (t < 10.0) & ((t % 1.0) < 0.05)
+    assert m[stick].all()
+    between = (t >= 4.0) & (t < 10.0) & ((t % 1.0) > 0.15) & ((t % 1.0) < 0.9)
+    assert not m[between].any()
+    # the start from rest: the mean speed over ±0.5 s stays in the band until 0.81 s, and
+    # 0.5 s more
+    assert m[t < 1.3].all() and not m[(t > 1.35) & (t < 3.95)].any()
+    # the reversal: the mean speed is in the band within 0.2 s of 20 s, and 0.5 s more
+    assert m[(t > 19.32) & (t < 20.68)].all()
+    assert not m[(t > 16.0) & (t < 19.28)].any() and not m[(t > 20.72) & (t < 24.0)].any()
 
 
 def test_the_angle_criterion_does_not_call_steady_motion_a_stop():

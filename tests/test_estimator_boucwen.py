@@ -258,16 +258,18 @@ def _sbc_setup():
 
 @pytest.mark.slow
 def test_simulation_based_calibration_of_hmc():
-    """200 replications: (β, γ, θ, τ²) drawn from the prior, data simulated, fit by the
+    """400 replications: (β, γ, θ, τ²) drawn from the prior, data simulated, fit by the
     production path (LS → posterior mode → HMC → exact linear draws). The truth must fall in
     the 95 % central interval 92–98 % of the time, pooled over the 7 parameters (the linear
     block is drawn given each HMC draw, so it inherits the sampler's errors), and the ranks of
-    β and γ must be uniform. β and γ alone are held to ≥ 0.90: on this block of seeds the
-    exact posterior itself (quadrature on a grid, no sampler) covers them 0.925 of the time
-    (0.955 on the next 200 seeds) — 200 replications resolve coverage to ±0.012 only."""
+    β and γ must be uniform. β and γ alone are held to ≥ 0.90: on the first 200 of these seeds
+    the exact posterior itself (quadrature on a grid, no sampler) covers them 0.925 of the time
+    (0.955 on the next 200) — 200 replications resolve coverage to ±0.012 only, and on
+    200 the pooled coverage fell on either side of 0.92 with the machine's floating point
+    (one count in 1400), hence 400."""
     delta, dd, v_eps, sc, lin, prior = _sbc_setup()
     s = prior.nl_sd[0]
-    reps = 200
+    reps = 400
     inside = np.zeros((reps, 7), dtype=bool)
     ranks = np.zeros((reps, 7))
     for rep in range(reps):
