@@ -29,6 +29,8 @@ counts as named when it comes first on either law.
 from __future__ import annotations
 
 import importlib
+import multiprocessing
+import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -291,6 +293,21 @@ def _run(args: tuple) -> dict:
                 "error": f"{type(exc).__name__}: {exc}"}
 
 
+BLAS_THREADS = "1"
+"""OpenBLAS threads in each worker of the harness, unless the environment sets
+OPENBLAS_NUM_THREADS: the workers already take the cores, and a threaded call in one of them
+waits for its helper thread while the other worker holds the core (docs/diagnosis.md, "The
+harness's workers and their BLAS threads")."""
+
+
+def _single_blas_pool(workers: int) -> ProcessPoolExecutor:
+    """Worker processes started afresh (spawn), whose OpenBLAS reads BLAS_THREADS when they load
+    numpy: a forked worker would inherit the parent's library with its threads already set."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", BLAS_THREADS)
+    return ProcessPoolExecutor(max_workers=workers,
+                               mp_context=multiprocessing.get_context("spawn"))
+
+
 def validate_independent(seeds: int = 1, first_seed: int = 1, quick: bool = False,
                          workers: int = 2, variants: tuple[Variant, ...] | None = None,
                          progress=None) -> dict:
@@ -303,7 +320,7 @@ def validate_independent(seeds: int = 1, first_seed: int = 1, quick: bool = Fals
                           none_per_seed=1 if quick else 2)
     cells = []
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with _single_blas_pool(workers) as pool:
         for i, c in enumerate(pool.map(_run, todo)):
             cells.append(c)
             if progress:

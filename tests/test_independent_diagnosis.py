@@ -343,3 +343,18 @@ def test_rig_i_soft_centre_is_the_nominal_curves_not_backlash():
     assert "backlash" not in c["effects"], c
     c = run_cell(RIG_I_FEW, 22, "hysteresis", "bouc_wen_n1", 2.0, "single")
     assert c["named_first"] == "hysteresis" and "backlash" not in c["effects"], c
+
+
+def test_the_harness_workers_run_one_blas_thread_each(monkeypatch):
+    """Two workers on two cores, each calling a two-thread OpenBLAS, made a 750 Hz campaign's
+    diagnosis 18 times slower (docs/diagnosis.md). The workers start afresh and read one thread
+    when they load numpy, unless the environment says otherwise."""
+    import os
+
+    from commands.independent_harness import _single_blas_pool
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    with _single_blas_pool(1) as pool:
+        assert pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result() == "1"
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    with _single_blas_pool(1) as pool:
+        assert pool.submit(os.getenv, "OPENBLAS_NUM_THREADS").result() == "2"
