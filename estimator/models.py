@@ -263,16 +263,22 @@ form it is a shape parameter (fixed, or searched on a grid by the caller) and th
 identified is another one: backlash's dead-zone half-width b [rad] shapes the column
 backlash_twist(Δ, b) − Δ, whose coefficient k_bl [N·m/rad] is identified (≈ the stiffness)."""
 
-PHYSICAL_SIGN: dict[str, tuple[str, int]] = {"backlash": ("k_bl", 1), "hysteresis": ("k_h", 1),
-                                             "stribeck": ("f_s", 1)}
-"""An effect's identified coefficient and the sign its physics allows: a dead zone takes the
-stiffness away inside its gap, k_bl > 0 (a negative k_bl makes the centre stiffer than the
-rest, which no backlash does; a misplaced knee of the compliance curve does); a hysteretic
+PHYSICAL_SIGN: dict[str, tuple[tuple[str, ...], int]] = {
+    "backlash": (("k_bl",), 1), "hysteresis": (("k_h",), 1), "stribeck": (("f_s",), 1),
+    "load_dependent_friction": (("mu", "mu_drive"), 1)}
+"""An effect's identified coefficients (those its shape carries) and the sign its physics
+allows: a dead zone takes the stiffness away inside its gap, k_bl > 0 (a negative k_bl makes
+the centre stiffer than the rest, which no backlash does; a misplaced knee of the compliance
+curve does); a hysteretic
 element is passive, its loop dissipates energy, k_h > 0 (a negative k_h runs the loop the other
 way round, torque lower on loading than on unloading: what a torque reading lagging the twist
 draws, not a material); a Stribeck curve is friction that rises above the Coulomb level toward
 rest, f_s > 0 (a negative f_s is friction that falls short of it at low speed: a presliding
-bearing rebuilding its friction after a stop, not a Stribeck curve)."""
+bearing rebuilding its friction after a stop, not a Stribeck curve); friction that grows with
+the transmitted load has a Coulomb coefficient μ > 0 (μ_drive > 0 for the power-flow shape,
+whose back-driven coefficient the loaded runs hardly determine): a negative μ is an efficiency
+that rises with the load, which a gear does not have; a torque transducer's gain error, when
+the load resists the motion, draws it."""
 
 
 def physical_objection(m: LinearModel, theta: np.ndarray) -> str | None:
@@ -280,11 +286,15 @@ def physical_objection(m: LinearModel, theta: np.ndarray) -> str | None:
     None when it is."""
     if not m.effects or m.effects[-1] not in PHYSICAL_SIGN:
         return None
-    name, sign = PHYSICAL_SIGN[m.effects[-1]]
-    value = float(theta[list(m.param_names).index(name)])
-    if value * sign > 0:
-        return None
-    return f"{name} = {value:.3g} has the sign no {m.effects[-1]} has"
+    names, sign = PHYSICAL_SIGN[m.effects[-1]]
+    params = list(m.param_names)
+    for name in names:
+        if name not in params:
+            continue
+        value = float(theta[params.index(name)])
+        if value * sign <= 0:
+            return f"{name} = {value:.3g} has the sign no {m.effects[-1]} has"
+    return None
 
 
 def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> Term:

@@ -209,3 +209,32 @@ def test_friction_that_falls_short_of_coulomb_at_low_speed_is_not_stribeck():
         row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
         assert np.sign(f_s) == sign, f_s
         assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+
+
+def test_friction_that_falls_with_the_load_is_not_load_dependent_friction():
+    """Friction that grows with the transmitted load has μ > 0. μ < 0, an efficiency that rises
+    with the load, is what a torque transducer's gain error draws when the load resists the
+    motion (rig L's nominal at 750 Hz): never a significant candidate; μ > 0 is."""
+    from estimator.diagnosis_candidates import _best_shape, _fit, _score
+    from estimator.models import eq4
+    opt = DiagnosisOptions()
+
+    def balance(sign: int, seed: int) -> dict:
+        rng = np.random.default_rng(seed)
+        t = np.linspace(0.0, 240.0, 12000)
+        w = 2 * np.pi / 24.0
+        q, qd, qdd = 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t), -0.3 * w * w * np.sin(w * t)
+        load = 6e4 * np.abs(np.sin(2 * np.pi * t / 40.0)) * np.sign(qd)   # resists the motion
+        base = (load + 6700.0 * qdd + 9.81 * (21.0 * np.sin(q) - 34.0 * np.cos(q)) + 8800.0 * qd
+                + 2300.0 * np.sign(qd))
+        torque = base + sign * 0.01 * np.abs(base) * np.sign(qd) + 100.0 * rng.standard_normal(t.size)
+        return {"t": t, "q": q, "qd": qd, "qdd": qdd, "torque": torque, "torque_load": load,
+                "run": np.full(t.size, seed, dtype=int)}
+    for sign in (-1, 1):
+        tr, te = balance(sign, 0), balance(sign, 1)
+        m = eq4()
+        f = _best_shape([({}, m.with_effect("load_dependent_friction"))], tr, te)
+        mu = f.theta[list(f.model.param_names).index("mu")]
+        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
+        assert np.sign(mu) == sign, mu
+        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
