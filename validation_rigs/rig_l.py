@@ -645,21 +645,25 @@ def _kernel(J, dt, m, n, scheme, direction, w0, P, C, prof_t, prof_v, fa, fb, wf
 
 
 @njit(cache=True)
+def _at(x, p):
+    """x at the fractional fine-step index p, linear interpolation; x[0] before 0, the last
+    sample beyond the end."""
+    J = x.shape[0]
+    if p <= 0.0:
+        return x[0]
+    i = int(p)
+    if i + 1 < J:
+        return x[i] + (p - i) * (x[i + 1] - x[i])
+    return x[J - 1]
+
+
+@njit(cache=True)
 def _delay(x, dsteps):
     """x delayed by dsteps (float, ≥ 0) fine steps, linear interpolation, x before 0 = x[0]."""
     J = x.shape[0]
     out = np.empty(J)
     for j in range(J):
-        p = j - dsteps
-        if p <= 0.0:
-            out[j] = x[0]
-        else:
-            i = int(p)
-            f = p - i
-            if i + 1 < J:
-                out[j] = x[i] + f * (x[i + 1] - x[i])
-            else:
-                out[j] = x[J - 1]
+        out[j] = _at(x, j - dsteps)
     return out
 
 
@@ -671,16 +675,7 @@ def _hold(x, dt, lag_steps, period, phase):
     for j in range(J):
         t = j * dt
         th = phase + period * math.floor((t - phase) / period)
-        p = th / dt - lag_steps
-        if p <= 0.0:
-            out[j] = x[0]
-        else:
-            i = int(p)
-            f = p - i
-            if i + 1 < J:
-                out[j] = x[i] + f * (x[i + 1] - x[i])
-            else:
-                out[j] = x[J - 1]
+        out[j] = _at(x, th / dt - lag_steps)
     return out
 
 
