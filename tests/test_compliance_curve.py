@@ -43,6 +43,33 @@ def signals(curve, n: int = 6000, seed: int = 0, noise: float = 100.0) -> dict:
     return {"t": t, "torsion": d, "torsion_rate": dd, "torque": torque}
 
 
+def output_balance(effect, seed: int, load: float = 0.0) -> dict:
+    """A joint swung ±0.3 rad with a 24 s period (Eq. 4 with 100 N·m of white noise), a load up
+    to `load` [N·m] that resists the motion, and `effect(qd, base)` added to the torque (base:
+    the nominal torque)."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 240.0, 12000)
+    w = 2 * np.pi / 24.0
+    q, qd, qdd = 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t), -0.3 * w * w * np.sin(w * t)
+    tau_l = load * np.abs(np.sin(2 * np.pi * t / 40.0)) * np.sign(qd)
+    base = (tau_l + 6700.0 * qdd + 9.81 * (21.0 * np.sin(q) - 34.0 * np.cos(q)) + 8800.0 * qd
+            + 2300.0 * np.sign(qd))
+    torque = base + effect(qd, base) + 100.0 * rng.standard_normal(t.size)
+    return {"t": t, "q": q, "qd": qd, "qdd": qdd, "torque": torque, "torque_load": tau_l,
+            "run": np.full(t.size, seed, dtype=int)}
+
+
+def _assert_the_sign_decides(models, m, tr, te, param: str, sign: int) -> None:
+    """The best shape's `param` has the sign of `sign`, and the candidate is significant exactly
+    when that is its physics' sign (else it carries an objection)."""
+    from estimator.diagnosis_candidates import _best_shape, _fit, _score
+    f = _best_shape(models, tr, te)
+    value = f.theta[list(f.model.param_names).index(param)]
+    row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, DiagnosisOptions())
+    assert np.sign(value) == sign, value
+    assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+
+
 def test_the_knees_of_a_three_slope_curve_are_found_and_the_curve_is_nominal():
     sig = signals(three_slope)
     knees = compliance_knees(sig, DiagnosisOptions())
@@ -98,8 +125,6 @@ def test_a_dead_zone_fitted_with_a_stiffer_centre_is_not_backlash():
     nominal's stiffening knees cannot take): the backlash column fits it with k_bl < 0, a dead
     zone that adds stiffness inside its gap — no backlash does, so the candidate is never
     significant; a real dead zone's k_bl > 0 is."""
-    from estimator.diagnosis_candidates import _best_shape, _fit, _score
-
     def soft(d):
         return 1.3e7 * d + 0.6e7 * np.clip(d, -1e-3, 1e-3)     # stiffer within ±1 mrad
 
@@ -111,11 +136,7 @@ def test_a_dead_zone_fitted_with_a_stiffer_centre_is_not_backlash():
         tr["run"], te["run"] = np.zeros(tr["t"].size, int), np.ones(te["t"].size, int)
         m = with_stiffening(eq5(), compliance_knees(tr, opt))
         models = [({"b": b}, m.with_effect("backlash", b=b)) for b in (2e-4, 5e-4, 1e-3)]
-        f = _best_shape(models, tr, te)
-        k_bl = f.theta[list(f.model.param_names).index("k_bl")]
-        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
-        assert np.sign(k_bl) == sign, k_bl
-        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+        _assert_the_sign_decides(models, m, tr, te, "k_bl", sign)
 
 
 def test_a_loop_run_backwards_is_not_hysteresis():
@@ -123,8 +144,8 @@ def test_a_loop_run_backwards_is_not_hysteresis():
     unloading (k_h > 0). A loop the other way round (k_h < 0: what a torque reading whose lag
     is not all stated draws) is never a significant hysteresis; the same loop the right way
     round is."""
-    from estimator.diagnosis_candidates import _best_shape, _fit, _score
     opt = DiagnosisOptions()
+
     def spring(d):
         return 1.3e7 * d
     for sign in (-1, 1):
@@ -137,11 +158,7 @@ def test_a_loop_run_backwards_is_not_hysteresis():
         models = [({"alpha": 1.0, "beta": b, "gamma": b, "n": 1},
                    m.with_effect("hysteresis", alpha=1.0, beta=b, gamma=b, n=1))
                   for b in (2e3, 5e3, 1e4)]
-        f = _best_shape(models, tr, te)
-        k_h = f.theta[list(f.model.param_names).index("k_h")]
-        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
-        assert np.sign(k_h) == sign, k_h
-        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+        _assert_the_sign_decides(models, m, tr, te, "k_h", sign)
 
 
 def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
@@ -185,56 +202,26 @@ def test_friction_that_falls_short_of_coulomb_at_low_speed_is_not_stribeck():
     after a stop) is never a significant Stribeck candidate; the same curve the right way up
     is."""
     from core.effects import stribeck_torque
-    from estimator.diagnosis_candidates import _best_shape, _fit, _score
     from estimator.models import eq4
-    opt = DiagnosisOptions()
-
-    def balance(sign: int, seed: int) -> dict:
-        rng = np.random.default_rng(seed)
-        t = np.linspace(0.0, 240.0, 12000)
-        w = 2 * np.pi / 24.0
-        q, qd, qdd = 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t), -0.3 * w * w * np.sin(w * t)
-        torque = (6700.0 * qdd + 9.81 * (21.0 * np.sin(q) - 34.0 * np.cos(q)) + 8800.0 * qd
-                  + 2300.0 * np.sign(qd) + stribeck_torque(qd, sign * 1500.0, 0.01, 1e-6)
-                  + 100.0 * rng.standard_normal(t.size))
-        return {"t": t, "q": q, "qd": qd, "qdd": qdd, "torque": torque,
-                "torque_load": np.zeros(t.size), "run": np.full(t.size, seed, dtype=int)}
     for sign in (-1, 1):
-        tr, te = balance(sign, 0), balance(sign, 1)
+        def curve(qd, base, sign=sign):
+            return stribeck_torque(qd, sign * 1500.0, 0.01, 1e-6)
+        tr, te = output_balance(curve, 0), output_balance(curve, 1)
         m = eq4()
         models = [({"v_s": v}, m.with_effect("stribeck", v_s=v, delta=2.0))
                   for v in (0.005, 0.01, 0.02)]
-        f = _best_shape(models, tr, te)
-        f_s = f.theta[list(f.model.param_names).index("f_s")]
-        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
-        assert np.sign(f_s) == sign, f_s
-        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+        _assert_the_sign_decides(models, m, tr, te, "f_s", sign)
 
 
 def test_friction_that_falls_with_the_load_is_not_load_dependent_friction():
     """Friction that grows with the transmitted load has μ > 0. μ < 0, an efficiency that rises
     with the load, is what a torque transducer's gain error draws when the load resists the
     motion (rig L's nominal at 750 Hz): never a significant candidate; μ > 0 is."""
-    from estimator.diagnosis_candidates import _best_shape, _fit, _score
     from estimator.models import eq4
-    opt = DiagnosisOptions()
-
-    def balance(sign: int, seed: int) -> dict:
-        rng = np.random.default_rng(seed)
-        t = np.linspace(0.0, 240.0, 12000)
-        w = 2 * np.pi / 24.0
-        q, qd, qdd = 0.3 * np.sin(w * t), 0.3 * w * np.cos(w * t), -0.3 * w * w * np.sin(w * t)
-        load = 6e4 * np.abs(np.sin(2 * np.pi * t / 40.0)) * np.sign(qd)   # resists the motion
-        base = (load + 6700.0 * qdd + 9.81 * (21.0 * np.sin(q) - 34.0 * np.cos(q)) + 8800.0 * qd
-                + 2300.0 * np.sign(qd))
-        torque = base + sign * 0.01 * np.abs(base) * np.sign(qd) + 100.0 * rng.standard_normal(t.size)
-        return {"t": t, "q": q, "qd": qd, "qdd": qdd, "torque": torque, "torque_load": load,
-                "run": np.full(t.size, seed, dtype=int)}
     for sign in (-1, 1):
-        tr, te = balance(sign, 0), balance(sign, 1)
+        def efficiency(qd, base, sign=sign):
+            return sign * 0.01 * np.abs(base) * np.sign(qd)
+        tr, te = output_balance(efficiency, 0, load=6e4), output_balance(efficiency, 1, load=6e4)
         m = eq4()
-        f = _best_shape([({}, m.with_effect("load_dependent_friction"))], tr, te)
-        mu = f.theta[list(f.model.param_names).index("mu")]
-        row = _score(_fit(m, {}, tr, te), f, np.arange(te["t"].size) // 200, opt)
-        assert np.sign(mu) == sign, mu
-        assert row["significant"] == (sign > 0) and (("objection" in row) == (sign < 0)), row
+        _assert_the_sign_decides([({}, m.with_effect("load_dependent_friction"))], m, tr, te,
+                                 "mu", sign)
