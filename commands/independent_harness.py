@@ -124,6 +124,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig L 30 Hz, 0.015° encoder, 4+2 runs", "rig_l",
             {"sample_rate_hz": 30.0, "encoder_res_deg": 0.015, "torque_noise": 350.0},
             few_runs=True),
+    Variant("rig M 400 Hz, 0.004° encoder, 6 ms torque lag", "rig_m",
+            {"sample_rate_hz": 400.0, "encoder_res_deg": 0.004, "torque_noise": 220.0,
+             "torque_lag_s": 0.006}),
+    Variant("rig M 60 Hz, 0.008° encoder, 4+2 runs", "rig_m",
+            {"sample_rate_hz": 60.0, "encoder_res_deg": 0.008, "torque_noise": 280.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
