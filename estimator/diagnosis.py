@@ -233,7 +233,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         avail &= set(_available(r, prep))
     need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
     law_prep, mode = below_drive_train_mode(list(train_runs) + list(test_runs), prep, model,
-                                            opt.transient_s, opt.mode_band_excess)
+                                            opt.transient_s, opt.mode_band_excess, opt.z_gain)
     law_prep, velocity = velocity_source(train_runs, law_prep, model, opt.transient_s,
                                          opt.z_gain, opt.block)
     pooled = _pool(list(train_runs) + list(test_runs), need, law_prep, 0)

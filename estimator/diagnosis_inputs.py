@@ -174,21 +174,28 @@ def working_rate(runs: Sequence[RunData], prep: PrepOptions, opt: DiagnosisOptio
 
 
 def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: LinearModel,
-                           transient_s: float, mode_band_excess: float = 2.0
+                           transient_s: float, mode_band_excess: float = 2.0, z: float = 3.0
                            ) -> tuple[PrepOptions, dict | None]:
-    """For an output balance with an inertia term: `prep` low-passed (every channel) at half
-    the drive train's first mode f₁ = √(k/I)/2π when f₁/2 lies inside the analysed band, and
-    what was measured (None when nothing was changed). At f₁ the output inertia rings on the
-    transmission stiffness with a motion of the order of the output encoder's step, so the
-    balance's I·q̈ cannot be measured there: the ringing would be left in the residual as
-    structure (and pull the fitted I down) though the model lacks nothing. Done only when the
-    nominal residual shows that ringing: a dominant spectral line within 25 % of f₁, or at
-    least `mode_band_excess` times a white residual's power between 0.5·f₁ and 1.5·f₁
-    (`band_excess`: on a stiffening transmission the mode moves with the load). k is the
-    least-squares slope of the torque on the twist u − q over the runs; I the law fitted below
-    2 Hz (where the encoder resolves the motion) on the steady samples (`transient_mask`: a
-    low-passed sgn q̇ is wrong around reversals). Runs without a twist (no motor angle) are
-    left as they are."""
+    """For an output balance with an inertia term: `prep` low-passed (every channel) where the
+    balance cannot measure I·q̈ over its band, and what was measured (None when nothing was
+    changed). I is the law fitted below 2 Hz (where the encoder resolves the motion) on the
+    steady samples (`transient_mask`: a low-passed sgn q̇ is wrong around reversals).
+    - At the drive train's first mode f₁ = √(k/I)/2π the output inertia rings on the
+      transmission stiffness with a motion of the order of the output encoder's step, so I·q̈
+      cannot be measured there: the ringing would be left in the residual as structure (and
+      pull the fitted I down) though the model lacks nothing. The band is cut at f₁/2 when that
+      lies inside it and the nominal residual shows the ringing: a dominant spectral line
+      within 25 % of f₁, or at least `mode_band_excess` times a white residual's power between
+      0.5·f₁ and 1.5·f₁ (`band_excess`: on a stiffening transmission the mode moves with the
+      load). k is the least-squares slope of the torque on the twist u − q over the runs.
+    - Nor can the velocity reading always carry q̈ over the band left: when the law fitted
+      over it puts I below half the 2 Hz fit's, by more than `z` standard errors, the band is
+      cut at 2 Hz. q̈ is differentiated from the velocity reading, and a reading that steps by
+      its resolution (a windowed encoder difference steps by the encoder step over the window)
+      makes it mostly noise above a few hertz: least squares shrinks I by the share of q̈'s
+      variance that is motion, and below one half the reading's q̈ is more noise than motion.
+      The real I·q̈ is then left in the residual, where it passes for a lag or a transient.
+    Runs without a twist (no motor angle) are left as they are."""
     if model.kind != "output" or "I_xx" not in model.param_names:
         return prep, None
     num = den = 0.0
@@ -209,38 +216,61 @@ def below_drive_train_mode(runs: Sequence[RunData], prep: PrepOptions, model: Li
     low = 2.0
     if k <= 0 or not low < band:
         return prep, None
-    lo_prep = replace(prep, cutoff_hz=low, filter_outputs=True)
-    pooled = _pool(list(runs), list(model.requires), lo_prep, 0)
-    if transient_s > 0:
-        pooled = _slice(pooled, ~transient_mask(pooled, transient_s, output_encoder_step(runs)))
-    if pooled["t"].size <= 2 * len(model.param_names):   # nothing steady to measure I on
+    i_xx = model.param_names.index("I_xx")
+
+    def steady_fit(p: PrepOptions):
+        pooled = _pool(list(runs), list(model.requires), p, 0)
+        if transient_s > 0:
+            pooled = _slice(pooled, ~transient_mask(pooled, transient_s,
+                                                    output_encoder_step(runs)))
+        if pooled["t"].size <= 2 * len(model.param_names):   # nothing steady to fit on
+            return None, None
+        return pooled, _fit(model, {}, pooled, pooled)
+
+    _, lo_fit = steady_fit(replace(prep, cutoff_hz=low, filter_outputs=True))
+    if lo_fit is None or not lo_fit.theta[i_xx] > 0:
         return prep, None
-    fit = _fit(model, {}, pooled, pooled)
-    inertia = float(fit.theta[model.param_names.index("I_xx")])
-    if not inertia > 0:
-        return prep, None
+    inertia = float(lo_fit.theta[i_xx])
     f1 = float(np.sqrt(k / inertia) / (2.0 * np.pi))
-    if not 0.5 * f1 < band or 0.5 * f1 <= low:
+    full, fit = steady_fit(prep)
+    if fit is None:
         return prep, None
-    # only when the nominal residual in the full band rings at that mode (a dominant line within
-    # 25 % of f₁, the test of `_structure`): where the encoder resolves the ringing, or the
-    # drive train does not ring, the band and its sensitivity stay whole
-    full = _pool(list(runs), list(model.requires), prep, 0)
-    if transient_s > 0:
-        full = _slice(full, ~transient_mask(full, transient_s, output_encoder_step(runs)))
-    if full["t"].size <= 2 * len(model.param_names):
-        return prep, None
-    e = _fit(model, {}, full, full).e_train
-    line = spectral_line(e, full["t"], full["run"])
-    at_line = bool(line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
-                   and abs(line["freq_hz"] - f1) < 0.25 * f1)
-    excess = band_excess(e, full["t"], full["run"], 0.5 * f1, 1.5 * f1)
-    if not (at_line or excess >= mode_band_excess):
-        return prep, None
-    return replace(prep, cutoff_hz=0.5 * f1, filter_outputs=True), {
-        "stiffness": k, "inertia": inertia, "mode_hz": f1,
-        "line_hz": float(line["freq_hz"]) if at_line else None, "band_excess": excess,
-        "band_hz": band, "cutoff_hz": 0.5 * f1}
+    found = {"stiffness": k, "inertia": inertia, "mode_hz": f1, "line_hz": None,
+             "band_excess": None, "band_hz": band}
+    out = prep
+    if 0.5 * f1 < band and 0.5 * f1 > low:
+        # only when the nominal residual in the full band rings at that mode (a dominant line
+        # within 25 % of f₁, the test of `_structure`): where the encoder resolves the
+        # ringing, or the drive train does not ring, the band and its sensitivity stay whole
+        e = fit.e_train
+        line = spectral_line(e, full["t"], full["run"])
+        at_line = bool(line["p_value"] < 1e-3 and line["share"] > 0.05 and line["freq_hz"]
+                       and abs(line["freq_hz"] - f1) < 0.25 * f1)
+        excess = band_excess(e, full["t"], full["run"], 0.5 * f1, 1.5 * f1)
+        if at_line or excess >= mode_band_excess:
+            out = replace(prep, cutoff_hz=0.5 * f1, filter_outputs=True)
+            found.update(line_hz=float(line["freq_hz"]) if at_line else None,
+                         band_excess=excess, cutoff_hz=0.5 * f1, reason="mode")
+            fit = steady_fit(out)[1]
+    if fit is not None:
+        found["inertia_in_band"] = float(fit.theta[i_xx])
+        if (fit.theta[i_xx] < 0.5 * inertia
+                and inertia - fit.theta[i_xx] > z * float(np.hypot(lo_fit.se[i_xx],
+                                                                    fit.se[i_xx]))):
+            out = replace(prep, cutoff_hz=low, filter_outputs=True)
+            found.update(cutoff_hz=low, reason="inertia")
+    return (out, found) if out is not prep else (prep, None)
+
+
+def _common_samples(a: dict, b: dict) -> dict[bool, dict] | None:
+    """The two pools restricted to the samples (run, t) both hold, in their order, keyed as
+    velocity_source keys them (False: measured, True: derived); None when they share none."""
+    ka = np.rec.fromarrays([a["run"], a["t"]], names="run,t")
+    kb = np.rec.fromarrays([b["run"], b["t"]], names="run,t")
+    both = np.intersect1d(ka, kb)
+    if not both.size:
+        return None
+    return {False: _slice(a, np.isin(ka, both)), True: _slice(b, np.isin(kb, both))}
 
 
 def velocity_source(runs: Sequence[RunData], prep: PrepOptions, model: LinearModel,
@@ -264,7 +294,10 @@ def velocity_source(runs: Sequence[RunData], prep: PrepOptions, model: LinearMod
                   for dv in (False, True)}
     except (KeyError, ValueError):       # the law's own pooling says why, with the run's name
         return prep, None
-    if not np.array_equal(pooled[False]["t"], pooled[True]["t"]):
+    # the samples both readings have: a stated lag taken out of q̇ leaves its last samples
+    # missing, which the velocity derived from the angle still has
+    pooled = _common_samples(pooled[False], pooled[True])
+    if pooled is None:
         return prep, None
     keep = (~transient_mask(pooled[False], transient_s, output_encoder_step(runs))
             if transient_s > 0 else np.ones(pooled[False]["t"].size, dtype=bool))

@@ -38,9 +38,10 @@ def rig_i_few():
 
 def test_a_lagging_velocity_reading_is_replaced_by_the_angles_derivative(rig_i_few,
                                                                          monkeypatch):
-    """Read as it is, the lagging velocity leaves the nominal balance structured
-    (`unexplained`); the law fitted on the output angle's derivative leaves the smaller training
-    residual by more than 3 SE, so that one is read and the campaign is `none`."""
+    """Read as it is over the whole band, the lagging velocity leaves the nominal balance
+    structured (`unexplained`); the law fitted on the output angle's derivative leaves the
+    smaller training residual by more than 3 SE, so that one is read and the campaign is
+    `none`."""
     import estimator.diagnosis as diagnosis
     rep = diagnose(*rig_i_few, "eq4")
     v = rep["velocity"]
@@ -49,6 +50,8 @@ def test_a_lagging_velocity_reading_is_replaced_by_the_angles_derivative(rig_i_f
     assert rep["verdict"]["status"] == "none" and rep["verdict"]["effects"] == [], \
         rep["verdict"]["summary"]
     monkeypatch.setattr(diagnosis, "velocity_source", lambda runs, prep, *a, **k: (prep, None))
+    monkeypatch.setattr(diagnosis, "below_drive_train_mode",
+                        lambda runs, prep, *a, **k: (prep, None))
     as_read = diagnose(*rig_i_few, "eq4")
     assert as_read["verdict"]["status"] == "unexplained", as_read["verdict"]["summary"]
 
@@ -147,3 +150,50 @@ def test_the_velocity_choice_leaves_an_unreadable_velocity_to_the_laws_own_error
         runs.append(RunData(samples=s, meta=dict(r.meta)))
     prep = PrepOptions()
     assert velocity_source(runs, prep, base_model("eq4"), 0.5, 3.0) == (prep, None)
+
+
+@pytest.fixture(scope="module")
+def rig_m_few():
+    """Rig M's 4 + 2-run campaign at 60 Hz, nothing withheld: its `qd` is the output encoder's
+    difference over 50 ms (stated: lag 25 ms, resolution the 0.008° step over the window,
+    2.8·10⁻³ rad/s, a tenth of the top speed)."""
+    from commands.independent_harness import VARIANTS, simulate_campaign
+    v = next(v for v in VARIANTS if v.rig == "rig_m" and v.few_runs)
+    return simulate_campaign(v, 2701)
+
+
+def test_a_velocity_reading_with_a_stated_lag_is_compared_with_the_angle(rig_m_few):
+    """The stated lag taken out of q̇ leaves its last samples missing; the comparison with the
+    angle's derivative runs on the samples both have (it gave up when the two pools differed
+    in length, on every run whose velocity reading states a lag)."""
+    from estimator.diagnosis_data import base_model
+    from estimator.diagnosis_inputs import lag_corrected, velocity_source
+    from estimator.preprocess import PrepOptions
+    train = [lag_corrected(r) for r in rig_m_few[0]]
+    prep, found = velocity_source(train, PrepOptions(), base_model("eq4"), 0.5, 3.0)
+    assert found is not None and found["source"] == "measured", found
+    assert found["rmse_derived"] > found["rmse_measured"] > 0, found
+    assert not prep.derive_velocity
+
+
+def test_a_velocity_reading_that_cannot_carry_the_acceleration_cuts_the_band(rig_m_few,
+                                                                           monkeypatch):
+    """Over the whole band, q̈ differentiated from the stepping reading is mostly noise: the
+    balance fits I at under a hundredth of the rig's, leaves the real I·q̈ in the residual, and
+    names `time_delay` with nothing withheld. The inertia fitted over the band falls below the
+    2 Hz fit's by far more than 3 SE, so the band is cut at 2 Hz: I is the rig's and the
+    campaign is `none`."""
+    import estimator.diagnosis as diagnosis
+    train, test, raw = rig_m_few
+    rep = diagnose(train, test, "eq4")
+    mode = rep["drive_train_mode"]
+    assert mode is not None and mode["reason"] == "inertia" and mode["cutoff_hz"] == 2.0, mode
+    assert mode["inertia_in_band"] < 0.05 * mode["inertia"], mode
+    rig_inertia = raw[0].params["I"]
+    assert abs(rep["baseline"]["params"]["I_xx"]["value"] / rig_inertia - 1.0) < 0.2
+    assert rep["verdict"]["status"] == "none", rep["verdict"]["summary"]
+    monkeypatch.setattr(diagnosis, "below_drive_train_mode",
+                        lambda runs, prep, *a, **k: (prep, None))
+    whole_band = diagnose(train, test, "eq4")
+    assert "time_delay" in whole_band["verdict"]["effects"], whole_band["verdict"]["summary"]
+    assert whole_band["baseline"]["params"]["I_xx"]["value"] < 0.05 * rig_inertia
