@@ -254,13 +254,14 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     # said in the verdict's text too): naming one names the set
     sets = rep["verdict"].get("ambiguity_sets") or {}
     alike = {e: list((sets.get(e) or {}).get("effects") or []) for e in rep["verdict"]["effects"]}
+    extra = [e for e in rep["verdict"]["effects"] if e != effect and effect not in alike.get(e, [])]
+    unstated = getattr(rig_module(variant.rig), "UNSTATED_VOCABULARY", {})
     return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
             "form": form, "enr": enr, "enr_realised": realised,
             "status": rep["verdict"]["status"], "effects": list(rep["verdict"]["effects"]),
             "laws": laws, "named_first": first,
             "first_alike": alike.get(first, []) if first else [],
-            "extra": [e for e in rep["verdict"]["effects"]
-                      if e != effect and effect not in alike.get(e, [])],
+            "extra": extra, "extra_unstated": [e for e in extra if e in unstated],
             "shrinkages": _law_shrinkages(rep), "seconds": seconds,
             "coverage_short": short_coverage(rep["verdict"].get("held_out_coverage") or {})}
 
@@ -294,7 +295,8 @@ def _run(args: tuple) -> dict:
         return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
                 "form": form, "enr": enr, "enr_realised": float("nan"), "status": "error",
                 "effects": [], "laws": {"output": [], "transmission": []},
-                "named_first": None, "first_alike": [], "extra": [], "shrinkages": [],
+                "named_first": None, "first_alike": [], "extra": [], "extra_unstated": [],
+                "shrinkages": [],
                 "seconds": time.perf_counter() - t0,
                 "error": f"{type(exc).__name__}: {exc}"}
 
@@ -366,6 +368,14 @@ def score(cells: list[dict]) -> dict[str, Any]:
                                       for e, forms in fam.items()}
     named_wrong = [bool(c["extra"]) for c in none + single]
     out["extra_effect_named"] = float(np.mean(named_wrong)) if named_wrong else None
+    # the same, not counting an effect the rig carries unstated (UNSTATED_VOCABULARY: e.g. rig
+    # M's bending moment leaking into the torque transducer is a constant torque offset)
+    beyond = [bool(set(c["extra"]) - set(c.get("extra_unstated", ()))) for c in none + single]
+    out["extra_effect_named_beyond_unstated"] = float(np.mean(beyond)) if beyond else None
+    out["none_or_only_unstated"] = (float(np.mean(
+        [c["status"] == "none" or (bool(c["effects"]) and c["status"] in ("explained", "none")
+                                   and set(c["effects"]) <= set(c.get("extra_unstated", ())))
+         for c in none])) if none else None)
     out["oov_not_explained"] = (float(np.mean([c["status"] in NOT_EXPLAINED for c in oov]))
                                 if oov else None)
     err = [abs(a - p) for c in single for a, p in c["shrinkages"]]
@@ -440,6 +450,11 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
         g = own_map["top-1 at ENR >= 1"] - s["top1_enr_ge_1"]
         lines.append(f"{'own-emulator minus independent top-1':42} {'':6} {'':6} {g:6.3f}  "
                      f"<= 0.05  {'ok' if g <= 0.05 else 'NO'}")
+    if s.get("extra_effect_named_beyond_unstated") != s.get("extra_effect_named"):
+        lines.append(f"(not counting an effect a rig carries unstated, UNSTATED_VOCABULARY: "
+                     f"an effect named that was not withheld {_fmt(s['extra_effect_named_beyond_unstated']).strip()}"
+                     f", nothing withheld -> none or only that effect, explained "
+                     f"{_fmt(s['none_or_only_unstated']).strip()})")
     if s.get("errors"):
         lines.append(f"({s['errors']} campaigns raised an error in the diagnosis: scored as "
                      "failures, listed below)")

@@ -179,6 +179,43 @@ def test_independent_scores_and_the_side_by_side_table():
     assert "['gear_ripple'] [held-out coverage short: q]" in text
 
 
+def test_an_effect_the_rig_carries_unstated_is_scored_both_ways():
+    """Rig M's bending moment leaks into its torque reading as a constant offset it does not
+    state: naming `torque_offset` there is a false alarm to the strict figure and right about
+    the rig; the score reports both, and the table prints the second only beside the first."""
+    from commands.independent_harness import format_side_by_side, score
+    from core.effects import VOCABULARY
+    from validation_rigs import rig_m
+    assert set(rig_m.UNSTATED_VOCABULARY) <= set(VOCABULARY)
+    cells = [_cell("none", None, None, 0.0, "explained", ["torque_offset"], None,
+                   ["torque_offset"], ()),
+             _cell("none", None, None, 0.0, "partly_explained", ["torque_offset"], None,
+                   ["torque_offset"], ()),
+             _cell("none", None, None, 0.0, "explained", ["stribeck"], None, ["stribeck"], ()),
+             _cell("single", "backlash", "sharp", 1.0, "explained",
+                   ["backlash", "torque_offset", "stribeck"], "backlash",
+                   ["torque_offset", "stribeck"])]
+    for c in cells[:2]:
+        c["extra_unstated"] = ["torque_offset"]
+    cells[3]["extra_unstated"] = ["torque_offset"]
+    s = score(cells)
+    assert s["extra_effect_named"] == 1.0
+    assert s["extra_effect_named_beyond_unstated"] == pytest.approx(2 / 4)
+    assert s["none_verdict"] == 0.0 and s["none_or_only_unstated"] == pytest.approx(1 / 3)
+    text = format_side_by_side(None, {"scores": s, "cells": cells, "variants": ["v"],
+                                      "seeds": 1, "first_seed": 1, "seconds": 1.0})
+    strict = next(ln for ln in text.splitlines()
+                  if ln.startswith("an effect named that was not withheld"))
+    assert " 1.000 " in strict and strict.endswith("NO")
+    assert "UNSTATED_VOCABULARY: an effect named that was not withheld 0.500" in text
+    assert "only that effect, explained 0.333" in text
+    for c in cells:
+        c["extra_unstated"] = []
+    assert "UNSTATED_VOCABULARY" not in format_side_by_side(
+        None, {"scores": score(cells), "cells": cells, "variants": ["v"], "seeds": 1,
+               "first_seed": 1, "seconds": 1.0})
+
+
 def test_a_campaign_the_diagnosis_fails_on_is_scored_as_a_failure(monkeypatch):
     """One campaign that raises must not end the score (rig G's blind score lost its first
     30 cells that way): it is an `error` cell, a miss in every figure it enters, listed with
