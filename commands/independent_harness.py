@@ -130,6 +130,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig M 60 Hz, 0.008° encoder, 4+2 runs", "rig_m",
             {"sample_rate_hz": 60.0, "encoder_res_deg": 0.008, "torque_noise": 280.0},
             few_runs=True),
+    Variant("rig N 160 Hz, 0.006° encoder, 5 ms torque lag", "rig_n",
+            {"sample_rate_hz": 160.0, "encoder_res_deg": 0.006, "torque_noise": 260.0,
+             "torque_lag_s": 0.005}),
+    Variant("rig N 12 Hz, 0.012° encoder, 4+2 runs", "rig_n",
+            {"sample_rate_hz": 12.0, "encoder_res_deg": 0.012, "torque_noise": 320.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
