@@ -151,6 +151,15 @@ def rig_module(name: str):
     return importlib.import_module(f"validation_rigs.{name}")
 
 
+def largest_scale(rig: str) -> float | None:
+    """The largest effect scale the rig makes (its SCALE_MAX or MAX_SCALE), None when it states
+    none. A rig clamps a larger scale or refuses it; either way the campaign is run at this
+    scale, and its realised ENR (`enr_realised`) is below the one asked for."""
+    mod = rig_module(rig)
+    top = getattr(mod, "SCALE_MAX", None) or getattr(mod, "MAX_SCALE", None)
+    return float(top) if top is not None else None
+
+
 def simulate_campaign(variant: Variant, seed: int, effects: dict[str, dict] | None = None,
                       periods: int = 3) -> tuple[list, list, list]:
     """(train RunData, test RunData, every run's RigRun) of one campaign of `variant`."""
@@ -237,11 +246,14 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     """One campaign simulated with `effect` in `form` scaled to `enr` (none: nothing) and
     diagnosed blind."""
     from estimator.diagnosis import diagnose
-    effects, realised = {}, 0.0
+    effects, realised, clamped = {}, 0.0, False
     if effect is not None:
         base_raw = simulate_campaign(variant, seed)[2]
         unit = contribution_enr(variant, seed, effect, form, base_raw)
         scale = enr / unit if unit > 0 else 1.0
+        top = largest_scale(variant.rig)
+        if top is not None and scale > top:      # the rig cannot make it that large
+            scale, clamped = top, True
         effects = {effect: {"form": form, "scale": scale}}
         realised = unit * scale
     train, test, _ = simulate_campaign(variant, seed, effects)
@@ -264,6 +276,7 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     unstated = getattr(rig_module(variant.rig), "UNSTATED_VOCABULARY", {})
     return {"variant": variant.name, "seed": seed, "kind": kind, "effect": effect,
             "form": form, "enr": enr, "enr_realised": realised,
+            "scale_clamped": clamped,
             "status": rep["verdict"]["status"], "effects": list(rep["verdict"]["effects"]),
             "laws": laws, "named_first": first,
             "first_alike": alike.get(first, []) if first else [],
@@ -387,6 +400,7 @@ def score(cells: list[dict]) -> dict[str, Any]:
     err = [abs(a - p) for c in single for a, p in c["shrinkages"]]
     out["shrinkage_abs_error_median"] = float(np.median(err)) if err else None
     out["errors"] = int(sum(c["status"] == "error" for c in cells))
+    out["scale_clamped"] = int(sum(bool(c.get("scale_clamped")) for c in cells))
     # how specific the held-out coverage note is: on the misses, and on the hits beside them
     noted = [[bool(c.get("coverage_short")) for c in ge1 if _hit(c) == hit]
              for hit in (False, True)]
@@ -464,6 +478,10 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
     if s.get("errors"):
         lines.append(f"({s['errors']} campaigns raised an error in the diagnosis: scored as "
                      "failures, listed below)")
+    if s.get("scale_clamped"):
+        lines.append(f"({s['scale_clamped']} campaigns asked a rig for more than its largest "
+                     "effect scale: run at that scale, their realised ENR below the one asked "
+                     "for and scored at the one asked for)")
     if s.get("top1_through_ambiguity_set"):
         lines.append(f"(top-1 counts {s['top1_through_ambiguity_set']} single-effect campaigns "
                      "whose effect was named in the first effect's ambiguity set)")

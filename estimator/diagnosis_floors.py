@@ -59,12 +59,14 @@ def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float
     floor follows what the law does with a step — a stiffening curve's local slope, the damping
     of the twist rate, the low-pass that averages the error of an encoder crossing many steps
     and keeps that of one creeping or at rest. 0 when no encoder states its step or the run
-    records the twist itself (`torsion`)."""
+    records the twist itself (`torsion`) and states no step for it; when it does, that
+    channel is the one smoothed and quantised again."""
     sensors = run.meta.get("sensors") or {}
     cols = run.samples.columns
-    steps = {ch: float((sensors.get(ch) or {}).get("resolution", 0.0)) for ch in ("q", "u")}
+    chans = ("torsion",) if "torsion" in cols else ("q", "u")
+    steps = {ch: float((sensors.get(ch) or {}).get("resolution", 0.0)) for ch in chans}
     steps = {ch: st for ch, st in steps.items() if st > 0 and ch in cols}
-    if not steps or "torsion" in cols or not {"q", "u"} <= set(cols):
+    if not steps or ("torsion" not in cols and not {"q", "u"} <= set(cols)):
         return 0.0
     t = run.t
     fs = float(run.meta.get("sample_rate_hz") or 1.0 / np.median(np.diff(t)))

@@ -11,7 +11,7 @@ import numpy as np
 from core.run import RunData
 from estimator.diagnosis_candidates import bouc_wen_grid
 from estimator.diagnosis_data import _pool, base_model
-from estimator.diagnosis_inputs import output_encoder_step, stated_resolution
+from estimator.diagnosis_inputs import stated_resolution
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, knee_column, with_stiffening
@@ -83,13 +83,22 @@ fine enough (4 % apart over the backlash grid's range) that a dead zone's own ha
 among them."""
 
 
+def _twist_step(run: RunData) -> float:
+    """The step [rad] with which one run measures the twist: its `torsion` channel's stated
+    step when it records the twist itself and states one (the law reads that channel), else
+    the sum of the output and motor encoders' stated steps; 0 when it states neither."""
+    if "torsion" in run.samples.columns and stated_resolution(run, "torsion") > 0:
+        return stated_resolution(run, "torsion")
+    if stated_resolution(run, "q") <= 0:
+        return 0.0
+    return stated_resolution(run, "q") + stated_resolution(run, "u")
+
+
 def twist_resolution(runs: Sequence[RunData]) -> float | None:
-    """The coarsest step [rad] with which the runs measure the twist u − q: the sum of the
-    output and motor encoders' stated steps (`stated_resolution`), the largest over the runs;
-    None when a run states no output-encoder step."""
-    if not runs or output_encoder_step(runs) <= 0:
-        return None
-    return max(stated_resolution(r, "q") + stated_resolution(r, "u") for r in runs)
+    """The coarsest step [rad] with which the runs measure the twist u − q (`_twist_step`),
+    the largest over the runs; None when a run states none."""
+    steps = [_twist_step(r) for r in runs]
+    return max(steps) if steps and min(steps) > 0 else None
 
 
 def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
@@ -193,9 +202,13 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     clipped to ± k·resolution (k: the least-squares slope of the torque on the twist), is taken
     off its torque. Bounded by the step, it cannot take away more than a zero error can be;
     a dead zone under a load that keeps one sign is a constant too, and within a step the two
-    are the same thing to these runs."""
+    are the same thing to these runs. A recorded twist (`torsion`) is zeroed the same way
+    within the step its channel states, and not at all when it states none."""
     runs = list(train_runs) + list(test_runs)
-    if not resolution or resolution <= 0 or any("torsion" in r.samples.columns for r in runs):
+    # a recorded twist whose own step is not stated: its zero is not known to be an encoder's
+    unstated = any("torsion" in r.samples.columns and stated_resolution(r, "torsion") <= 0
+                   for r in runs)
+    if not resolution or resolution <= 0 or unstated:
         return list(train_runs), list(test_runs), None
     need = list(dict.fromkeys(("t",) + TRANSMISSION_SIGNALS + tuple(model.requires)))
     n = len(train_runs)

@@ -179,6 +179,19 @@ def test_independent_scores_and_the_side_by_side_table():
     assert "['gear_ripple'] [held-out coverage short: q]" in text
 
 
+def test_a_scale_the_rig_cannot_make_is_clamped_and_said():
+    """Rig N refuses scales above 10, and its linear position-dependent stiffness needs a
+    scale near 300 for ENR 2 at 12 Hz: the blind score lost such campaigns as `error`. The
+    campaign now runs at the rig's largest scale, says so, and reports the ENR it realised."""
+    from commands.independent_harness import largest_scale
+    assert largest_scale("rig_n") == 10.0 and largest_scale("rig_m") == 3.0
+    assert largest_scale("two_inertia") is None
+    v = next(v for v in VARIANTS if v.rig == "rig_n" and v.few_runs)
+    c = run_cell(v, 5, "position_dependent_stiffness", "linear", 2.0, "oov")
+    assert c["status"] != "error" and c["scale_clamped"] is True
+    assert 0.0 < c["enr_realised"] < 2.0
+
+
 def test_an_effect_the_rig_carries_unstated_is_scored_both_ways():
     """Rig M's bending moment leaks into its torque reading as a constant offset it does not
     state: naming `torque_offset` there is a false alarm to the strict figure and right about

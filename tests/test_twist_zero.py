@@ -73,3 +73,38 @@ def test_runs_that_state_no_encoder_step_keep_their_zero(campaign):
     out_train, out_test, zero = twist_zeros(train, test, model_from_spec("eq5"),
                                             PrepOptions(), None)
     assert zero is None and out_train == list(train) and out_test == list(test)
+
+
+RIG_N_FEW = next(v for v in VARIANTS if v.rig == "rig_n" and v.few_runs)
+
+
+def _torsion_step_unstated(run: RunData) -> RunData:
+    meta = {**run.meta, "sensors": {k: v for k, v in run.meta["sensors"].items()
+                                    if k != "torsion"}}
+    return RunData(samples=run.samples, meta=meta)
+
+
+def test_a_recorded_twist_that_states_its_step_is_zeroed_within_it():
+    """Rig N records the twist itself (`torsion` = q − u of its encoders) and states its step:
+    its blind score found every nominal twist law `unexplained`, because a recorded twist was
+    never zeroed per run and had no encoder floor. Within the step it states, it now is, and
+    has (seed 1801, the blind score's)."""
+    from estimator.diagnosis_floors import quantisation_floor
+    train, test, _ = simulate_campaign(RIG_N_FEW, 1801)
+    assert "torsion" in train[0].samples.columns
+    step = train[0].meta["sensors"]["torsion"]["resolution"]
+    rep = diagnose(train, test, "eq4", transmission="eq5")
+    tx = rep["transmission"]
+    assert tx["verdict"]["status"] == "none", tx["verdict"]
+    zero = tx["baseline"]["twist_zero"]
+    assert zero["resolution"] == pytest.approx(step)
+    assert all(abs(s) <= zero["bound_nm"] for s in zero["shift_nm"])
+    model = model_from_spec("eq5")
+    params = {"k": 1.4e7, "D": 0.0, "C": 0.0}
+    assert quantisation_floor(train[0], model, params, PrepOptions()) > 0.0
+    # a recorded twist that states no step keeps its zero and has no floor, as before
+    bare_train = [_torsion_step_unstated(r) for r in train]
+    bare_test = [_torsion_step_unstated(r) for r in test]
+    assert quantisation_floor(bare_train[0], model, params, PrepOptions()) == 0.0
+    _, _, none = twist_zeros(bare_train, bare_test, model, PrepOptions(), step)
+    assert none is None
