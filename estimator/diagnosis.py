@@ -485,6 +485,23 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
 
 # --- the transmission law (twist vs torque) ------------------------------------------------------
 
+def _note_narrow_dead_zone(verdict: dict, resolution: float | None,
+                           opt: DiagnosisOptions) -> None:
+    """A chosen backlash whose half-width b [rad] is under `opt.soft_centre_min_steps` of the
+    twist's stated step is, through the encoders' rounding, the same thing to these runs as a
+    softer centre of the compliance curve (estimator.diagnosis_transmission.soft_centre, which
+    takes a centre into the nominal only from that width): its ambiguity set says so
+    (`soft_centre`: b in steps, the steps needed), and so does the verdict's text."""
+    b = (verdict.get("shapes") or {}).get("backlash", {}).get("b")
+    if "backlash" not in verdict["effects"] or not resolution or b is None:
+        return
+    if b < opt.soft_centre_min_steps * resolution:
+        entry = verdict["ambiguity_sets"].setdefault(
+            "backlash", {"effects": [], "nominal_parameters": []})
+        entry["soft_centre"] = {"half_width_steps": float(b / resolution),
+                                "steps_needed": float(opt.soft_centre_min_steps)}
+
+
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                            spec: str | LinearModel = "auto", prep: PrepOptions | None = None,
                            options: DiagnosisOptions | None = None,
@@ -534,6 +551,7 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
         train_runs, test_runs, zero = twist_zeros(train_runs, test_runs, model, tprep,
                                                   twist_resolution(runs))
     d = diagnose_detailed(train_runs, test_runs, model, tprep, topt, transmission=None)
+    _note_narrow_dead_zone(d.report["verdict"], twist_resolution(runs), opt)
     d.report["baseline"]["shape"] = shape
     d.report["baseline"]["twist_zero"] = zero
     d.report["baseline"]["carried"] = list(carried)

@@ -91,7 +91,13 @@ def verdict_summary(report: DiagnosisReport) -> str:
     def name(e: str) -> str:
         # an effect whose contribution the runs cannot tell from another's is named with it
         alike = (sets.get(e) or {}).get("effects") or []
-        return f"{e} (≡ {' or '.join(alike)} on these runs)" if alike else e
+        text = f"{e} (≡ {' or '.join(alike)} on these runs)" if alike else e
+        centre = (sets.get(e) or {}).get("soft_centre")
+        if centre:
+            text += (f" (or a softer centre of the compliance curve: the dead zone's "
+                     f"half-width, {centre['half_width_steps']:.1f} of the twist's stated steps, "
+                     f"is under the {centre['steps_needed']:g} that tell the two apart)")
+        return text
 
     for rep, law in laws:
         named = [name(e) for e in v["effects"]

@@ -108,3 +108,34 @@ def test_a_recorded_twist_that_states_its_step_is_zeroed_within_it():
     assert quantisation_floor(bare_train[0], model, params, PrepOptions()) == 0.0
     _, _, none = twist_zeros(bare_train, bare_test, model, PrepOptions(), step)
     assert none is None
+
+
+def test_a_dead_zone_too_narrow_to_tell_from_a_soft_centre_says_so():
+    """Rig N's transmission is softer below 12 kN·m (K1/K2 = 0.74). At 12 Hz with its 0.012°
+    encoder that centre is 4.9 twist steps wide, under the 5 the nominal needs to take it
+    (soft_centre), and the backlash candidate takes it: the verdict names backlash and says
+    that a dead zone that narrow is, to these runs, a softer centre too."""
+    from estimator.diagnosis import _note_narrow_dead_zone
+    from commands.independent_harness import contribution_enr
+    seed, form = 1801, "exponential"
+    scale = 1.0 / contribution_enr(RIG_N_FEW, seed, "stribeck", form)
+    train, test, _ = simulate_campaign(RIG_N_FEW, seed,
+                                       {"stribeck": {"form": form, "scale": scale}})
+    rep = diagnose(train, test, "eq4", transmission="eq5")
+    v = rep["verdict"]
+    assert "backlash" in v["effects"], v
+    centre = v["ambiguity_sets"]["backlash"]["soft_centre"]
+    assert 1.0 < centre["half_width_steps"] < centre["steps_needed"] == 5.0
+    assert "or a softer centre of the compliance curve" in v["summary"]
+    # a dead zone wider than the steps needed is told apart: no note
+    opt = DiagnosisOptions()
+    wide = {"effects": ["backlash"], "shapes": {"backlash": {"b": 6e-4}}, "ambiguity_sets": {}}
+    _note_narrow_dead_zone(wide, 1e-4, opt)
+    assert wide["ambiguity_sets"] == {}
+    narrow = {"effects": ["backlash"], "shapes": {"backlash": {"b": 2e-4}},
+              "ambiguity_sets": {}}
+    _note_narrow_dead_zone(narrow, 1e-4, opt)
+    assert narrow["ambiguity_sets"]["backlash"]["soft_centre"]["half_width_steps"] == \
+        pytest.approx(2.0)
+    _note_narrow_dead_zone(wide, None, opt)      # no stated step: nothing to say
+    assert wide["ambiguity_sets"] == {}
