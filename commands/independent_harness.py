@@ -136,6 +136,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig N 12 Hz, 0.012° encoder, 4+2 runs", "rig_n",
             {"sample_rate_hz": 12.0, "encoder_res_deg": 0.012, "torque_noise": 320.0},
             few_runs=True),
+    Variant("rig O 800 Hz, 0.002° encoder, 2 ms torque lag", "rig_o",
+            {"sample_rate_hz": 800.0, "encoder_res_deg": 0.002, "torque_noise": 180.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig O 35 Hz, 0.015° encoder, 4+2 runs", "rig_o",
+            {"sample_rate_hz": 35.0, "encoder_res_deg": 0.015, "torque_noise": 300.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
