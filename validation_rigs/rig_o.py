@@ -759,6 +759,28 @@ def _init_state(P, E, scheme, dirn, z0, psi0, theta0):
 
 
 @nb.njit(cache=True)
+def _newton_matrix(ynew, bh, t, P, E, scheme, dirn, ctx, eps, active, f, fj, yp, jac, piv,
+                   auxj, ctxj):
+    """The Newton matrix I - bh*df/dy at ynew by forward differences (steps eps, only the
+    `active` states; f = f(ynew) given), LU-factored in place into jac, piv."""
+    n = ynew.shape[0]
+    for c in range(n):
+        for k in range(n):
+            jac[k, c] = 0.0
+        jac[c, c] = 1.0
+        if active[c]:
+            for k in range(n):
+                yp[k] = ynew[k]
+            yp[c] += eps[c]
+            for k in range(8):
+                ctxj[k] = ctx[k]
+            _rhs(yp, t, P, E, scheme, dirn, ctxj, fj, auxj)
+            for k in range(n):
+                jac[k, c] -= bh * (fj[k] - f[k]) / eps[c]
+    _lu_factor(jac, piv)
+
+
+@nb.njit(cache=True)
 def _solve_full(ynew, base, bh, t, P, E, scheme, dirn, ctx, tol, eps, active,
                 f, fj, yp, r, jac, piv, aux, auxj, ctxj):
     """Solve ynew - base - bh*f(ynew) = 0 by Newton with a fresh finite-difference Jacobian at
@@ -771,20 +793,8 @@ def _solve_full(ynew, base, bh, t, P, E, scheme, dirn, ctx, tol, eps, active,
             r[k] = -(ynew[k] - base[k] - bh * f[k])
             if abs(r[k]) / tol[k] > nr:
                 nr = abs(r[k]) / tol[k]
-        for c in range(n):
-            for k in range(n):
-                jac[k, c] = 0.0
-            jac[c, c] = 1.0
-            if active[c]:
-                for k in range(n):
-                    yp[k] = ynew[k]
-                yp[c] += eps[c]
-                for k in range(8):
-                    ctxj[k] = ctx[k]
-                _rhs(yp, t, P, E, scheme, dirn, ctxj, fj, auxj)
-                for k in range(n):
-                    jac[k, c] -= bh * (fj[k] - f[k]) / eps[c]
-        _lu_factor(jac, piv)
+        _newton_matrix(ynew, bh, t, P, E, scheme, dirn, ctx, eps, active, f, fj, yp, jac,
+                       piv, auxj, ctxj)
         _lu_solve(jac, piv, r)
         lam = 1.0
         for ls in range(12):
@@ -883,20 +893,8 @@ def _integrate(scheme, dirn, nsteps, h, P, E, y0, theta0, tol, eps, active):
                 for k in range(n):
                     r[k] = -(ynew[k] - base[k] - bh * f[k])
                 if need_jac:
-                    for c in range(n):
-                        for k in range(n):
-                            jac[k, c] = 0.0
-                        jac[c, c] = 1.0
-                        if active[c]:
-                            for k in range(n):
-                                yp[k] = ynew[k]
-                            yp[c] += eps[c]
-                            for k in range(8):
-                                ctxj[k] = ctx[k]
-                            _rhs(yp, t, P, E, scheme, dirn, ctxj, fj, auxj)
-                            for k in range(n):
-                                jac[k, c] -= bh * (fj[k] - f[k]) / eps[c]
-                    _lu_factor(jac, piv)
+                    _newton_matrix(ynew, bh, t, P, E, scheme, dirn, ctx, eps, active, f, fj,
+                                   yp, jac, piv, auxj, ctxj)
                     need_jac = False
                     fresh = True
                     bh_jac = bh
