@@ -162,7 +162,12 @@ def autocorr(draws: np.ndarray, max_lag: int) -> np.ndarray:
         ac = _autocov(a[:, :, j])
         with np.errstate(invalid="ignore", divide="ignore"):
             rho = ac[:, :L + 1] / ac[:, :1]
-        out[:, j] = np.nanmean(rho, axis=0)
+        # a chain that never moves has no autocorrelation (0/0): averaged over the chains that
+        # do, NaN when none does (without numpy's empty-slice warning in the log)
+        ok = np.isfinite(rho)
+        n_ok = ok.sum(axis=0)
+        total = np.where(ok, rho, 0.0).sum(axis=0)
+        out[:, j] = np.where(n_ok > 0, total / np.maximum(n_ok, 1), np.nan)
     return out
 
 

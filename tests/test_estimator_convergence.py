@@ -86,3 +86,19 @@ def test_summary_and_fit_from_draws():
     js = f.as_dict()
     assert js["sigma"] == pytest.approx(3.0) and js["params"][0]["name"] == "a"
     assert js["diagnostics"]["accept_rate"] == [0.25] * 4
+
+
+def test_autocorr_of_chains_that_never_move_is_nan_without_a_warning():
+    # a parameter whose chains all stay put (a fixed or collapsed parameter) has no
+    # autocorrelation; one stuck chain among moving ones is left out of the average
+    import warnings
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal((3, 500, 2))
+    x[:, :, 1] = 0.7                     # every chain stuck
+    x[0, :, 0] = -1.0                    # one chain stuck, two moving
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        acf = autocorr(x, 4)
+    assert np.all(np.isnan(acf[:, 1]))
+    assert acf[0, 0] == pytest.approx(1.0)
+    assert np.allclose(acf[:, 0], autocorr(x[1:, :, :1], 4)[:, 0])
