@@ -470,7 +470,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     if tx is not None and final is not None and OFFSET in chosen:
         check = offset_channel(cur.model, cur.theta, final.extra["cov_blocks"],
                                tx.baseline.param_names, tx.baseline.mean,
-                               tx.baseline.extra["cov_blocks"], pooled["t"], pooled["run"],
+                               tx.baseline.extra["cov_blocks"], pooled, pooled["run"],
                                opt.z_gain)
         if check is not None:
             report["verdict"]["offset_channel"] = check

@@ -22,15 +22,15 @@ from estimator.models import LinearModel
 EFFECT = "torque_offset"
 
 
-def _columns(model: LinearModel, t: np.ndarray, run: np.ndarray
+def _columns(model: LinearModel, sig: dict[str, np.ndarray], run: np.ndarray
              ) -> tuple[list[str], np.ndarray, np.ndarray] | None:
-    """(names, indices into the model's parameters, columns on t) of the effect's columns that
-    vary within a run, each with its per-run mean taken off; None when the model lacks the
-    term."""
+    """(names, indices into the model's parameters, columns on the samples `sig`) of the
+    effect's columns that vary within a run, each with its per-run mean taken off; None when
+    the model lacks the term."""
     start = 0
     for term in model.terms:
         if term.label == EFFECT:
-            cols = term.columns({"t": t})
+            cols = term.columns(sig)
             keep = [j for j in range(cols.shape[1]) if np.ptp(cols[:, j]) > 0]
             cols = cols[:, keep].copy()
             for r in np.unique(run):
@@ -43,12 +43,12 @@ def _columns(model: LinearModel, t: np.ndarray, run: np.ndarray
 
 def offset_channel(output_model: LinearModel, output_theta: np.ndarray,
                    output_cov: np.ndarray, twist_names: list[str], twist_theta: np.ndarray,
-                   twist_cov: np.ndarray, t: np.ndarray, run: np.ndarray, z: float
-                   ) -> dict[str, Any] | None:
+                   twist_cov: np.ndarray, sig: dict[str, np.ndarray], run: np.ndarray,
+                   z: float) -> dict[str, Any] | None:
     """Which reading the within-run part of the output law's torque_offset lies in.
 
-    c(t) is that part as the output law fitted it, on the samples (t [s], run) the output law
-    read; `share` is how much of c the twist–torque law's own fit of the same columns holds
+    c(t) is that part as the output law fitted it, on the samples the output law read (`sig`:
+    t [s], and temp_joint [°C] when the offset follows the temperature; `run`); `share` is how much of c the twist–torque law's own fit of the same columns holds
     (its projection on c, 1 when the offset is on T, 0 when on τ_L), with its standard error
     from both fits' block-robust covariances. `channel` is 'torque_load' when the output law's
     c is significant (its size > z standard errors), `share` is nearer 0 than 1, and 1 lies
@@ -58,7 +58,7 @@ def offset_channel(output_model: LinearModel, output_theta: np.ndarray,
     estimator.models.LinearModel.with_effect). None when either law lacks the term, the
     offset does not vary within a run, or a covariance is not finite (fewer than 3 blocks):
     no claim is made."""
-    found = _columns(output_model, t, run)
+    found = _columns(output_model, sig, run)
     if found is None or not found[0] or not set(found[0]) <= set(twist_names):
         return None
     names, i_out, G = found

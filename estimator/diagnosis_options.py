@@ -55,6 +55,9 @@ class DiagnosisOptions:
     offset_settling_s: tuple[float, ...] = (10.0, 30.0, 100.0)
     """Settling time constants [s] of the torque reading searched besides a constant and a
     linear drift (torque_offset)."""
+    offset_thermal_min_span_c: float = 5.0
+    """Span of the training runs' joint temperature [K] from which torque_offset is also tried
+    as a zero that follows it (a strain gauge's zero drift, N·m per K)."""
     temperature_curvatures: tuple[float, ...] = (0.03, 0.06, 0.1, -0.03)
     """Curvatures κ [1/K] of the temperature law searched besides the linear one
     (core.effects.temperature_friction_torque: a drag ∝ exp(κ·(T_ref − temp)) − 1)."""

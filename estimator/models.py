@@ -33,6 +33,9 @@ from core.terms import eq4_regressor, eq11_regressor, smooth_sign
 
 _P = JointParams()
 V_EPS = _P.v_eps
+THERMAL_ZERO_REF_C = 25.0
+"""Temperature [°C] at which torque_offset's thermal column is zero (its constant c0 takes the
+zero at any other reference)."""
 """Speed scale of the smoothed sign used by every friction column [rad/s] (core.params)."""
 
 
@@ -315,7 +318,9 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                               shape motor=1: the same on u (the motor angle over N, `order` = k·N);
                               shape harmonics=h: also at 2·order … h·order (two columns each)
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor;
-                              shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading)
+                              shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading;
+                              shape thermal=1 adds c_temp · (temp − 25 °C), a strain-gauge zero
+                              that follows the joint's temperature)
     time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
     hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
                               gamma, n) (transmission models without an x column, e.g. eq5)
@@ -338,11 +343,13 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     kappa = float(shape.get("curvature", 0.0)) if name == "temperature_friction" else 0.0
     # torque_offset's `settling`: the time constant [s] of a reading that settles after start
     settling = float(shape.get("settling", 0.0)) if name == "torque_offset" else 0.0
+    # and its `thermal`: a zero that follows the joint's temperature (a strain gauge's zero drift)
+    thermal = bool(shape.get("thermal", 0.0)) if name == "torque_offset" else False
     shape = {k: v for k, v in shape.items()
              if not ((name == "gear_ripple" and k in ("motor", "harmonics"))
                      or (name == "load_dependent_friction" and k == "power_flow")
                      or (name == "temperature_friction" and k == "curvature")
-                     or (name == "torque_offset" and k == "settling"))}
+                     or (name == "torque_offset" and k in ("settling", "thermal")))}
     bw_keys = {"alpha", "beta", "gamma", "n"}
     if name == "hysteresis":
         bad = set(shape) - bw_keys
@@ -415,6 +422,12 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                         fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
                         for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
                     (ang,))
+    if name == "torque_offset" and thermal:
+        return Term(name, ("c0", "drift", "c_temp"), ("N·m", "N·m/s", "N·m/K"),
+                    lambda s: np.column_stack([np.ones_like(s["t"]),
+                                               fx.torque_offset(s["t"], 0.0, 1.0),
+                                               s["temp_joint"] - THERMAL_ZERO_REF_C]),
+                    ("t", "temp_joint"))
     if name == "torque_offset" and settling > 0:
         return Term(name, ("c0", "drift", "settle"), ("N·m", "N·m/s", "N·m"),
                     lambda s: np.column_stack([np.ones_like(s["t"]),

@@ -388,6 +388,17 @@ def test_rig_i_soft_centre_is_the_nominal_curves_not_backlash():
     assert c["named_first"] == "hysteresis" and "backlash" not in c["effects"], c
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", [next(v for v in VARIANTS if v.rig == "rig_m" and v.few_runs),
+                                     next(v for v in VARIANTS if v.rig == "rig_o" and v.few_runs)])
+def test_a_torque_zero_that_follows_the_temperature_is_a_torque_offset(variant):
+    """Rigs M and O carry a strain-gauge zero that follows the joint's temperature (N·m per K):
+    each run's offset differs with its temperature, which no constant and drift shared by the
+    runs fits. torque_offset's family now holds it (shape `thermal`)."""
+    c = run_cell(variant, 22, "torque_offset", "thermal", 2.0, "single")
+    assert c["named_first"] == "torque_offset", c
+
+
 def test_the_harness_workers_run_one_blas_thread_each(monkeypatch):
     """Two workers on two cores, each calling a two-thread OpenBLAS, made a 750 Hz campaign's
     diagnosis 18 times slower (docs/diagnosis.md). The workers start afresh and read one thread

@@ -101,7 +101,7 @@ def test_no_claim_without_a_finite_covariance():
     finite = np.eye(n) * 1e-6
     names = ["c0", "drift"]
     ok = offset_channel(model, theta, finite, names, np.array([0.0, 0.0]), np.eye(2) * 1e-6,
-                        t, run, 3.0)
+                        {"t": t}, run, 3.0)
     assert ok is not None and ok["channel"] == "torque_load"
     assert offset_channel(model, theta, np.full((n, n), np.inf), names, np.array([0.0, 0.0]),
-                          np.eye(2) * 1e-6, t, run, 3.0) is None
+                          np.eye(2) * 1e-6, {"t": t}, run, 3.0) is None
