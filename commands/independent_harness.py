@@ -142,6 +142,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig O 35 Hz, 0.015° encoder, 4+2 runs", "rig_o",
             {"sample_rate_hz": 35.0, "encoder_res_deg": 0.015, "torque_noise": 300.0},
             few_runs=True),
+    Variant("rig P 600 Hz, 0.003° encoder, 1 ms torque lag", "rig_p",
+            {"sample_rate_hz": 600.0, "encoder_res_deg": 0.003, "torque_noise": 200.0,
+             "torque_lag_s": 0.001}),
+    Variant("rig P 18 Hz, 0.01° encoder, 4+2 runs", "rig_p",
+            {"sample_rate_hz": 18.0, "encoder_res_deg": 0.01, "torque_noise": 280.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
