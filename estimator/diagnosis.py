@@ -454,6 +454,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                                        if k not in ("ripple_orders", "regions")},
                     "ripple_orders": [min(opt.ripple_orders), max(opt.ripple_orders)]},
     }
+    _note_resisting_load(report["verdict"], cur, tr, opt)
     if opt.series_points > 0:
         report["series"] = _series(pooled, len(train_runs), model, e_all, e_fin, angle_order,
                                    report["regions"], opt)
@@ -481,6 +482,32 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     report["verdict"]["summary"] = verdict_summary(report)
     return Diagnosis(report=report, baseline=_as_fit(base_fit, "baseline", {}, tr, tr_blocks),
                      final=final, transmission=tx)
+
+
+def _note_resisting_load(verdict: dict, fit, tr: dict, opt: DiagnosisOptions) -> None:
+    """A chosen load_dependent_friction on runs whose load never drove the joint (no training
+    sample with |T| above `opt.driving_load_min_rel` of its largest where T·q̇ < 0) is, to these
+    runs, the same column as a gain mismatch between the torque and the load readings: T − τ_L
+    read with a relative gain error ε is ε·T = ε·|T|·sgn q̇ wherever the motor drives. Its
+    ambiguity set says so (`gain_mismatch`: the relative gain error μ stands for, the share of
+    loaded samples where the load drove), and so does the verdict's text; a run whose load
+    drives the joint tells the two apart (docs/diagnosis.md, rig L's and rig P's)."""
+    if "load_dependent_friction" not in verdict["effects"] or "torque" not in tr or "qd" not in tr:
+        return
+    names = list(fit.model.param_names)
+    mu = next((float(fit.theta[names.index(n)]) for n in ("mu", "mu_drive") if n in names), None)
+    T, v = np.asarray(tr["torque"], dtype=float), np.asarray(tr["qd"], dtype=float)
+    ok = np.isfinite(T) & np.isfinite(v)
+    if mu is None or not ok.any():
+        return
+    loaded = ok & (np.abs(T) > opt.driving_load_min_rel * float(np.max(np.abs(T[ok]))))
+    if not loaded.any():
+        return
+    driven = float(np.mean(T[loaded] * v[loaded] < 0.0))
+    if driven < opt.driving_load_min_share:
+        entry = verdict["ambiguity_sets"].setdefault(
+            "load_dependent_friction", {"effects": [], "nominal_parameters": []})
+        entry["gain_mismatch"] = {"relative_gain_error": mu, "driving_share": driven}
 
 
 # --- the transmission law (twist vs torque) ------------------------------------------------------

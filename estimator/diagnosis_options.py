@@ -55,6 +55,12 @@ class DiagnosisOptions:
     offset_settling_s: tuple[float, ...] = (10.0, 30.0, 100.0)
     """Settling time constants [s] of the torque reading searched besides a constant and a
     linear drift (torque_offset)."""
+    driving_load_min_rel: float = 0.1
+    """Loaded samples, for telling a load-dependent friction from a gain mismatch of the torque
+    readings: |T| above this share of the runs' largest."""
+    driving_load_min_share: float = 0.01
+    """Share of the loaded samples with T·q̇ < 0 (the load driving the joint) below which the runs
+    cannot tell a load-dependent friction from a gain mismatch of the torque readings."""
     offset_thermal_min_span_c: float = 5.0
     """Span of the training runs' joint temperature [K] from which torque_offset is also tried
     as a zero that follows it (a strain gauge's zero drift, N·m per K)."""

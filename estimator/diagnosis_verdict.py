@@ -97,6 +97,11 @@ def verdict_summary(report: DiagnosisReport) -> str:
             text += (f" (or a softer centre of the compliance curve: the dead zone's "
                      f"half-width, {centre['half_width_steps']:.1f} of the twist's stated steps, "
                      f"is under the {centre['steps_needed']:g} that tell the two apart)")
+        gain = (sets.get(e) or {}).get("gain_mismatch")
+        if gain:
+            text += (f" (or a gain mismatch of {100 * gain['relative_gain_error']:.3g} % between "
+                     f"the torque and load readings: the load never drove the joint in these "
+                     f"runs, where the two are one column)")
         return text
 
     for rep, law in laws:

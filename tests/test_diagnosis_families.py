@@ -182,3 +182,39 @@ def test_a_known_sensor_lag_is_taken_out_before_the_diagnosis():
     assert np.max(np.abs(out.samples["torque"][ok] - true[ok])) < 1e-3
     assert out.meta["sensors"]["torque"]["lag_s"] == 0.0 and run.samples["torque"][5] == lagged[5]
     assert lag_corrected(out) is out                 # nothing left to take out
+
+
+def test_a_load_that_never_drives_says_load_friction_may_be_a_gain_mismatch():
+    """Where the load always resists the motion (T·q̇ > 0 on every loaded sample), T − τ_L read
+    with a relative gain error ε is ε·|T|·sgn q̇: the column of load-dependent friction. The
+    verdict names the friction with that alternative; a run whose load drives the joint takes
+    the alternative away."""
+    from types import SimpleNamespace
+
+    from estimator.diagnosis import _note_resisting_load
+    from estimator.diagnosis_options import DiagnosisOptions
+    t = np.linspace(0.0, 50.0, 2001)
+    qd = 0.02 * np.sign(np.sin(0.3 * t) + 1e-9)
+    T = 60e3 * np.abs(np.sin(0.1 * t)) * np.sign(qd)          # the motor drives: T·q̇ ≥ 0
+    fit = SimpleNamespace(model=SimpleNamespace(param_names=("I", "f_c", "mu", "mu_v")),
+                          theta=np.array([6685.0, 2353.0, 3.2e-4, 0.0]))
+    verdict = {"effects": ["load_dependent_friction"], "ambiguity_sets": {}}
+    _note_resisting_load(verdict, fit, {"torque": T, "qd": qd}, DiagnosisOptions())
+    gain = verdict["ambiguity_sets"]["load_dependent_friction"]["gain_mismatch"]
+    assert gain == {"relative_gain_error": pytest.approx(3.2e-4), "driving_share": 0.0}
+    report = {"verdict": {**verdict, "status": "explained", "effect_models": {}},
+              "baseline": {"model": "eq4"},
+              "shrinkage": {"overall": {"rmse_before": 24.6, "rmse_after": 23.3,
+                                        "shrinkage": 0.054, "predicted_from_training": 0.063}}}
+    assert "or a gain mismatch of 0.032 % between the torque and load readings" in \
+        verdict_summary(report)
+    # a fifth of the loaded samples with the load driving the joint: no such note
+    driving = T.copy()
+    driving[:400] *= -1.0
+    verdict = {"effects": ["load_dependent_friction"], "ambiguity_sets": {}}
+    _note_resisting_load(verdict, fit, {"torque": driving, "qd": qd}, DiagnosisOptions())
+    assert verdict["ambiguity_sets"] == {}
+    # nothing to say when the friction is not named
+    verdict = {"effects": ["stribeck"], "ambiguity_sets": {}}
+    _note_resisting_load(verdict, fit, {"torque": T, "qd": qd}, DiagnosisOptions())
+    assert verdict["ambiguity_sets"] == {}
