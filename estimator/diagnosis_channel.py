@@ -48,8 +48,9 @@ def offset_channel(output_model: LinearModel, output_theta: np.ndarray,
     """Which reading the within-run part of the output law's torque_offset lies in.
 
     c(t) is that part as the output law fitted it, on the samples the output law read (`sig`:
-    t [s], and temp_joint [°C] when the offset follows the temperature; `run`); `share` is how much of c the twist–torque law's own fit of the same columns holds
-    (its projection on c, 1 when the offset is on T, 0 when on τ_L), with its standard error
+    t [s], and temp_joint [°C] when the offset follows the temperature; `run`); `share` is how
+    much of c the twist–torque law's own fit of the same columns holds (its projection on c,
+    1 when the offset is on T, 0 when on τ_L), with its standard error
     from both fits' block-robust covariances. `channel` is 'torque_load' when the output law's
     c is significant (its size > z standard errors), `share` is nearer 0 than 1, and 1 lies
     more than z standard errors from it; 'torque' when 0 lies more than z standard errors from

@@ -33,10 +33,10 @@ from core.terms import eq4_regressor, eq11_regressor, smooth_sign
 
 _P = JointParams()
 V_EPS = _P.v_eps
+"""Speed scale of the smoothed sign used by every friction column [rad/s] (core.params)."""
 THERMAL_ZERO_REF_C = 25.0
 """Temperature [°C] at which torque_offset's thermal column is zero (its constant c0 takes the
 zero at any other reference)."""
-"""Speed scale of the smoothed sign used by every friction column [rad/s] (core.params)."""
 
 
 @dataclass(frozen=True)
