@@ -505,9 +505,15 @@ def _note_resisting_load(verdict: dict, fit, tr: dict, opt: DiagnosisOptions) ->
         return
     driven = float(np.mean(T[loaded] * v[loaded] < 0.0))
     if driven < opt.driving_load_min_share:
-        entry = verdict["ambiguity_sets"].setdefault(
-            "load_dependent_friction", {"effects": [], "nominal_parameters": []})
-        entry["gain_mismatch"] = {"relative_gain_error": mu, "driving_share": driven}
+        _note_alternative(verdict, "load_dependent_friction", "gain_mismatch",
+                          {"relative_gain_error": mu, "driving_share": driven})
+
+
+def _note_alternative(verdict: dict, effect: str, key: str, what: dict) -> None:
+    """Record in the chosen `effect`'s ambiguity set a cause outside the vocabulary that these
+    runs cannot tell from it (`key`: what the verdict's text names it by, `what`: its sizes)."""
+    entry = verdict["ambiguity_sets"].setdefault(effect, {"effects": [], "nominal_parameters": []})
+    entry[key] = what
 
 
 # --- the transmission law (twist vs torque) ------------------------------------------------------
@@ -523,10 +529,9 @@ def _note_narrow_dead_zone(verdict: dict, resolution: float | None,
     if "backlash" not in verdict["effects"] or not resolution or b is None:
         return
     if b < opt.soft_centre_min_steps * resolution:
-        entry = verdict["ambiguity_sets"].setdefault(
-            "backlash", {"effects": [], "nominal_parameters": []})
-        entry["soft_centre"] = {"half_width_steps": float(b / resolution),
-                                "steps_needed": float(opt.soft_centre_min_steps)}
+        _note_alternative(verdict, "backlash", "soft_centre",
+                          {"half_width_steps": float(b / resolution),
+                           "steps_needed": float(opt.soft_centre_min_steps)})
 
 
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],

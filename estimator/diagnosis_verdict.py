@@ -90,14 +90,15 @@ def verdict_summary(report: DiagnosisReport) -> str:
 
     def name(e: str) -> str:
         # an effect whose contribution the runs cannot tell from another's is named with it
-        alike = (sets.get(e) or {}).get("effects") or []
+        entry = sets.get(e) or {}
+        alike = entry.get("effects") or []
         text = f"{e} (≡ {' or '.join(alike)} on these runs)" if alike else e
-        centre = (sets.get(e) or {}).get("soft_centre")
+        centre = entry.get("soft_centre")
         if centre:
             text += (f" (or a softer centre of the compliance curve: the dead zone's "
                      f"half-width, {centre['half_width_steps']:.1f} of the twist's stated steps, "
                      f"is under the {centre['steps_needed']:g} that tell the two apart)")
-        gain = (sets.get(e) or {}).get("gain_mismatch")
+        gain = entry.get("gain_mismatch")
         if gain:
             text += (f" (or a gain mismatch of {100 * gain['relative_gain_error']:.3g} % between "
                      f"the torque and load readings: the load never drove the joint in these "

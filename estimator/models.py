@@ -422,22 +422,23 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                         fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
                         for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
                     (ang,))
-    if name == "torque_offset" and thermal:
-        return Term(name, ("c0", "drift", "c_temp"), ("N·m", "N·m/s", "N·m/K"),
-                    lambda s: np.column_stack([np.ones_like(s["t"]),
-                                               fx.torque_offset(s["t"], 0.0, 1.0),
-                                               s["temp_joint"] - THERMAL_ZERO_REF_C]),
-                    ("t", "temp_joint"))
-    if name == "torque_offset" and settling > 0:
-        return Term(name, ("c0", "drift", "settle"), ("N·m", "N·m/s", "N·m"),
-                    lambda s: np.column_stack([np.ones_like(s["t"]),
-                                               fx.torque_offset(s["t"], 0.0, 1.0),
-                                               -np.expm1(-s["t"] / settling)]), ("t",))
     if name == "torque_offset":
-        return Term(name, ("c0", "drift"), ("N·m", "N·m/s"),
-                    lambda s: np.column_stack([fx.torque_offset(s["t"], 1.0, 0.0)
-                                               * np.ones_like(s["t"]),
-                                               fx.torque_offset(s["t"], 0.0, 1.0)]), ("t",))
+        # a constant and a linear drift, plus the column of the shape: a zero that follows the
+        # joint's temperature, or a reading that settles after start-up
+        names, units, inputs = ["c0", "drift"], ["N·m", "N·m/s"], ["t"]
+        if thermal:
+            names, units, inputs = names + ["c_temp"], units + ["N·m/K"], inputs + ["temp_joint"]
+        elif settling > 0:
+            names, units = names + ["settle"], units + ["N·m"]
+
+        def offset_columns(s):
+            cols = [np.ones_like(s["t"]), fx.torque_offset(s["t"], 0.0, 1.0)]
+            if thermal:
+                cols.append(s["temp_joint"] - THERMAL_ZERO_REF_C)
+            elif settling > 0:
+                cols.append(-np.expm1(-s["t"] / settling))
+            return np.column_stack(cols)
+        return Term(name, tuple(names), tuple(units), offset_columns, tuple(inputs))
     if name == "time_delay":
         return Term(name, ("delay",), ("s",), lambda s: -s["torque_rate"], ("torque_rate",))
     if name == "hysteresis":
