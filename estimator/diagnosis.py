@@ -77,7 +77,8 @@ from estimator.diagnosis_candidates import (_candidate_models, _contribution, _e
                                             _score, predicted_shrinkage, run_consistency)
 from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
 from estimator.diagnosis_coverage import held_out_coverage
-from estimator.diagnosis_data import OPTIONAL_SIGNALS, _available, _pool, _slice, base_model
+from estimator.diagnosis_data import (OPTIONAL_SIGNALS, _available, _pool, _slice, base_model,
+                                      refuse_diverged)
 from estimator.diagnosis_floors import _noise_floor, sensor_floor
 from estimator.diagnosis_inputs import (below_drive_train_mode, lag_corrected,
                                         output_encoder_step, transient_mask, velocity_source,
@@ -222,6 +223,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     if not train_runs or not test_runs:
         raise ValueError("a diagnosis needs at least one training run and one held-out run")
     opt = options or DiagnosisOptions()
+    refuse_diverged(train_runs, test_runs, opt.diverged_peak_ratio)
     train_runs = [lag_corrected(r) for r in train_runs]
     test_runs = [lag_corrected(r) for r in test_runs]
     prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)

@@ -26,6 +26,52 @@ def base_model(spec: str | LinearModel) -> LinearModel:
     return emps_model() if spec == "emps" else model_from_spec(spec)
 
 
+DIVERGENCE_CHANNELS = ("q", "qd", "qdd", "u", "ud", "torque", "torque_load", "torsion")
+"""Channels refuse_diverged checks: those the laws' columns are built from."""
+
+
+def _run_label(part: str, i: int, n: int, run: RunData) -> str:
+    m = run.meta or {}
+    what = [f"scheme {m['scheme']}" if m.get("scheme") is not None else "",
+            f"{m['motor_speed_rpm']:g} r/min" if m.get("motor_speed_rpm") else "",
+            f"direction {int(m['direction']):+d}" if m.get("direction") in (1, -1) else ""]
+    what = ", ".join(w for w in what if w)
+    return f"{part} run {i + 1} of {n}" + (f" ({what})" if what else "")
+
+
+def refuse_diverged(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
+                    ratio: float) -> None:
+    """Raise ValueError naming the run and channel when a run's peak |reading| of a channel
+    (finite samples; a non-finite one is a missing sample, left out by preprocess) exceeds
+    `ratio` times the median over the campaign's runs of that channel's peak, or its square
+    overflows (no least-squares fit can use it). Such a run is a diverged simulation or a
+    corrupted record: fitting it fails inside the linear algebra with nothing that says which
+    run is at fault, or lets one run dominate every fit."""
+    if not (np.isfinite(ratio) and ratio > 1.0):
+        raise ValueError(f"diverged_peak_ratio must be a finite number above 1, not {ratio}")
+    runs = [("training", i, len(train_runs), r) for i, r in enumerate(train_runs)]
+    runs += [("held-out", i, len(test_runs), r) for i, r in enumerate(test_runs)]
+    limit = float(np.sqrt(np.finfo(float).max))
+    for c in DIVERGENCE_CHANNELS:
+        peaks = []
+        for part, i, n, run in runs:
+            if c not in run.samples.columns:
+                continue
+            x = np.abs(run.samples[c].to_numpy(dtype=float))
+            x = x[np.isfinite(x)]
+            peaks.append((float(x.max()) if x.size else 0.0, part, i, n, run))
+        if not peaks:
+            continue
+        med = float(np.median([p[0] for p in peaks]))
+        for peak, part, i, n, run in peaks:
+            if peak >= limit or (med > 0 and peak > ratio * med):
+                raise ValueError(
+                    f"{_run_label(part, i, n, run)}: channel {c!r} reaches {peak:.3g}, "
+                    f"{peak / med if med > 0 else float('inf'):.2g} times the campaign's median "
+                    f"peak of it ({med:.3g}): a diverged simulation or a corrupted record is not "
+                    f"a measurement of the rig; leave the run out or repair it")
+
+
 def _available(run: RunData, prep: PrepOptions) -> list[str]:
     ok = []
     for s in OPTIONAL_SIGNALS:

@@ -121,6 +121,10 @@ class DiagnosisOptions:
     """An effect beyond the first is kept only when its per-run gains (held-out runs and
     leave-one-run-out training runs) are positive on more runs than chance would give, by a
     one-sided sign test at this level (estimator.diagnosis_candidates.run_consistency)."""
+    diverged_peak_ratio: float = 1e6
+    """A run whose peak |reading| of a channel exceeds the campaign's median peak of that channel
+    by this factor is refused by name (estimator.diagnosis_data.refuse_diverged): a diverged
+    simulation or a corrupted record, not a measurement of the same rig."""
     candidates: tuple[str, ...] | None = None
     """Effects to try (default: the whole vocabulary, those applicable)."""
     regions: RegionOptions = field(default_factory=RegionOptions)
