@@ -148,6 +148,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig P 18 Hz, 0.01° encoder, 4+2 runs", "rig_p",
             {"sample_rate_hz": 18.0, "encoder_res_deg": 0.01, "torque_noise": 280.0},
             few_runs=True),
+    Variant("rig Q 1 kHz, 0.002° encoder, 4 ms torque lag", "rig_q",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.002, "torque_noise": 220.0,
+             "torque_lag_s": 0.004}),
+    Variant("rig Q 30 Hz, 0.01° encoder, 4+2 runs", "rig_q",
+            {"sample_rate_hz": 30.0, "encoder_res_deg": 0.01, "torque_noise": 250.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
