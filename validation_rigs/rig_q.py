@@ -216,6 +216,15 @@ EFFECT_FORMS: dict[str, tuple[str, ...]] = {
 }
 OUT_OF_VOCABULARY: tuple[str, ...] = (
     "periodic_disturbance", "position_stiffness", "sensor_drift", "second_resonance")
+UNSTATED_VOCABULARY: dict[str, str] = {
+    "torque_offset": "the torque transducer's zero (sd 30 N m) and its thermal drift (sd 3 N m/K "
+                     "x (T_joint - 25 degC)), unstated",
+    "time_delay": "the amplifiers' group delays, unstated: the load cell's 30 Hz Butterworth "
+                  "(7.5 ms) against the torque transducer's 100 Hz one (2.25 ms), so the load "
+                  "reading lags the torque reading by about 5 ms"}
+"""Effects of the vocabulary that the rig carries at scale 0 without saying so in its metadata
+(declared for the harness's score after rig Q's blind score; the rig's behaviour is
+unchanged)."""
 
 # --- fixed design figures --------------------------------------------------------------------
 N1 = 100.0                       # precision reducer (motor -> intermediate shaft)
