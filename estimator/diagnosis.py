@@ -92,7 +92,7 @@ from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov,
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
                                               twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
-from estimator.models import LinearModel
+from estimator.models import LinearModel, with_torque_gain
 from estimator.preprocess import PrepOptions, prepare
 from estimator.result import Fit
 from core import effects as fx
@@ -257,6 +257,11 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                    "other run's) and are left out"
                    if n_transient else f"every {part} sample misses a channel the law needs")
             raise ValueError(f"the {law} has no {part} sample left to diagnose on: {why}")
+    if (model.kind == "output" and "torque_load" in model.target_requires
+            and bool(np.all(tr.get("has_load", False)))):
+        driven = driving_share(tr, opt.driving_load_min_rel)
+        if driven is not None and min(driven, 1.0 - driven) >= opt.torque_gain_min_share:
+            model = with_torque_gain(model)
 
     block = block_size(pooled["run"], opt.block)
     blocks = block_ids(pooled["run"], block)
@@ -494,21 +499,32 @@ def _note_resisting_load(verdict: dict, fit, tr: dict, opt: DiagnosisOptions) ->
     ambiguity set says so (`gain_mismatch`: the relative gain error μ stands for, the share of
     loaded samples where the load drove), and so does the verdict's text; a run whose load
     drives the joint tells the two apart (docs/diagnosis.md, rig L's and rig P's)."""
-    if "load_dependent_friction" not in verdict["effects"] or "torque" not in tr or "qd" not in tr:
+    if "load_dependent_friction" not in verdict["effects"]:
         return
     names = list(fit.model.param_names)
     mu = next((float(fit.theta[names.index(n)]) for n in ("mu", "mu_drive") if n in names), None)
-    T, v = np.asarray(tr["torque"], dtype=float), np.asarray(tr["qd"], dtype=float)
-    ok = np.isfinite(T) & np.isfinite(v)
-    if mu is None or not ok.any():
+    driven = driving_share(tr, opt.driving_load_min_rel)
+    if mu is None or driven is None:
         return
-    loaded = ok & (np.abs(T) > opt.driving_load_min_rel * float(np.max(np.abs(T[ok]))))
-    if not loaded.any():
-        return
-    driven = float(np.mean(T[loaded] * v[loaded] < 0.0))
     if driven < opt.driving_load_min_share:
         _note_alternative(verdict, "load_dependent_friction", "gain_mismatch",
                           {"relative_gain_error": mu, "driving_share": driven})
+
+
+def driving_share(sig: Mapping[str, np.ndarray], min_rel: float) -> float | None:
+    """Share of the loaded samples (|T| above `min_rel` of the largest) where the load drives
+    the joint (T·q̇ < 0: the motors brake); None without a torque, a velocity or a loaded
+    sample."""
+    if "torque" not in sig or "qd" not in sig:
+        return None
+    T, v = np.asarray(sig["torque"], dtype=float), np.asarray(sig["qd"], dtype=float)
+    ok = np.isfinite(T) & np.isfinite(v)
+    if not ok.any():
+        return None
+    loaded = ok & (np.abs(T) > min_rel * float(np.max(np.abs(T[ok]))))
+    if not loaded.any():
+        return None
+    return float(np.mean(T[loaded] * v[loaded] < 0.0))
 
 
 def _note_alternative(verdict: dict, effect: str, key: str, what: dict) -> None:

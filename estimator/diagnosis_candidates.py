@@ -146,6 +146,10 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
             continue
         try:
             grid = _shape_grid(name, sig, opt, e_train, disp, model.kind)
+            if "g_T" in model.param_names:
+                # a coefficient per power-flow sign is μ ± g_T: nothing beyond the plain law
+                # and the nominal's gain of the torque reading (estimator.models.with_torque_gain)
+                grid = [sh for sh in grid if not sh.get("power_flow")]
             models = [(shape, model.with_effect(name, **shape)) for shape in grid]
             models[0][1].design({k: v[:8] for k, v in sig.items()})
         except KeyError as exc:

@@ -61,6 +61,11 @@ class DiagnosisOptions:
     driving_load_min_share: float = 0.01
     """Share of the loaded samples with T·q̇ < 0 (the load driving the joint) below which the runs
     cannot tell a load-dependent friction from a gain mismatch of the torque readings."""
+    torque_gain_min_share: float = 0.2
+    """The output law's nominal carries the torque reading's gain against the load reading
+    (estimator.models.with_torque_gain) when at least this share of the training runs' loaded
+    samples has the load driving the joint and at least this share has it resisting: only then
+    are that gain and a load-dependent friction different columns."""
     offset_thermal_min_span_c: float = 5.0
     """Span of the training runs' joint temperature [K] from which torque_offset is also tried
     as a zero that follows it (a strain gauge's zero drift, N·m per K)."""

@@ -124,6 +124,26 @@ def eq4(v_eps: float = V_EPS) -> LinearModel:
                                      "f_c": "Coulomb friction torque"})
 
 
+TORQUE_GAIN = "torque_gain"
+"""Suffix of an output law whose nominal carries the torque reading's gain relative to the load
+reading (with_torque_gain)."""
+
+
+def with_torque_gain(model: LinearModel) -> LinearModel:
+    """`model` (an output balance T − τ_L = …) with the torque reading's gain relative to the
+    load reading's as a nominal column: g_T·T, g_T dimensionless (−0.001 is a torque reading
+    0.1 % low against the load cell). Two transducers of class 0.1 % differ by that much at
+    120 kN·m, ~100 N·m, a sensor's calibration and not a gap of the joint; it is the same column
+    as load_dependent_friction's μ·|T|·sgn q̇ wherever the load resists the motion, so the
+    diagnosis adds it only for runs where the load also drives (estimator.diagnosis)."""
+    term = Term("torque reading's gain against the load reading", ("g_T",), ("-",),
+                lambda s: np.asarray(s["torque"], dtype=float), ("torque",))
+    return replace(model, name=f"{model.name}+{TORQUE_GAIN}", terms=model.terms + (term,),
+                   descriptions={**model.descriptions,
+                                 "g_T": "relative gain error of the torque reading against the "
+                                        "load reading"})
+
+
 def eq5(offset: bool = True) -> LinearModel:
     """Eq. 5, the elastic joint without hysteresis: T = k·Δ + D·Δ̇ (+ C)."""
     terms = [Term("elastic (Eq. 5)", ("k", "D"), ("N·m/rad", "N·m·s/rad"),
@@ -242,13 +262,17 @@ MODELS: dict[str, Callable[..., LinearModel]] = {"eq4": eq4, "eq5": eq5, "eq11":
 
 
 def model_from_spec(spec: str, **kw) -> LinearModel:
-    """'eq4', 'eq4+stribeck', 'eq11+gear_ripple:order=36+torque_offset' -> a LinearModel."""
+    """'eq4', 'eq4+stribeck', 'eq11+gear_ripple:order=36+torque_offset',
+    'eq4+torque_gain+stribeck' -> a LinearModel."""
     base, *effs = [s.strip() for s in spec.split("+")]
     if base not in MODELS:
         raise ValueError(f"unknown linear model {base!r}; known: {sorted(MODELS)} (and 'eq9', "
                          "fitted by the Bouc–Wen estimator)")
     m = MODELS[base](**kw)
     for e in effs:
+        if e == TORQUE_GAIN:
+            m = with_torque_gain(m)
+            continue
         name, _, args = e.partition(":")
         shape = {}
         for kv in filter(None, args.split(",")):
