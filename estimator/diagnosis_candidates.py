@@ -128,8 +128,12 @@ def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> li
     return out
 
 
-def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
+def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
+                      gain_possible: bool = False
                       ) -> tuple[dict[str, list[tuple[dict, LinearModel]]], dict[str, str]]:
+    """Each effect's models over its shape grid. `gain_possible`: the runs can tell the torque
+    reading's gain from a load-dependent friction (estimator.diagnosis), and then that friction's
+    per-power-flow shape is not tried: it is the plain law plus that gain."""
     names = opt.candidates or fx.EFFECT_NAMES
     out, skipped = {}, {}
     for name in names:
@@ -146,9 +150,9 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
             continue
         try:
             grid = _shape_grid(name, sig, opt, e_train, disp, model.kind)
-            if "g_T" in model.param_names:
+            if gain_possible:
                 # a coefficient per power-flow sign is μ ± g_T: nothing beyond the plain law
-                # and the nominal's gain of the torque reading (estimator.models.with_torque_gain)
+                # and the gain of the torque reading (estimator.models.with_torque_gain)
                 grid = [sh for sh in grid if not sh.get("power_flow")]
             models = [(shape, model.with_effect(name, **shape)) for shape in grid]
             models[0][1].design({k: v[:8] for k, v in sig.items()})

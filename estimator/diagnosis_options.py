@@ -62,10 +62,14 @@ class DiagnosisOptions:
     """Share of the loaded samples with T·q̇ < 0 (the load driving the joint) below which the runs
     cannot tell a load-dependent friction from a gain mismatch of the torque readings."""
     torque_gain_min_share: float = 0.2
-    """The output law's nominal carries the torque reading's gain against the load reading
-    (estimator.models.with_torque_gain) when at least this share of the training runs' loaded
-    samples has the load driving the joint and at least this share has it resisting: only then
-    are that gain and a load-dependent friction different columns."""
+    """The torque reading's gain against the load reading (estimator.models.with_torque_gain)
+    can enter the output law's nominal only when at least this share of the training runs'
+    loaded samples has the load driving the joint and at least this share has it resisting:
+    only then are that gain and a load-dependent friction different columns."""
+    torque_gain: bool | None = None
+    """Whether the output law's nominal carries that gain (where it can): None decides from the
+    runs — the search runs without it, and again with it when it is significant on the held-out
+    runs beside the effects chosen (estimator.diagnosis); True: always; False: never."""
     offset_thermal_min_span_c: float = 5.0
     """Span of the training runs' joint temperature [K] from which torque_offset is also tried
     as a zero that follows it (a strain gauge's zero drift, N·m per K)."""

@@ -384,7 +384,7 @@ def test_rig_diagnose_draws_one_stage_bar_in_an_80_column_pty(campaign_files):
         os.close(master)
     assert p.returncode == 0, err
     rep = json.loads(p.stdout)
-    assert rep["baseline"]["model"] == "eq4+torque_gain"
+    assert rep["baseline"]["model"] == "eq4"
     assert rep["transmission"]["baseline"]["model"] == "eq5+stiffening"
     lines = updates(err)
     bar_lines = [line for line in lines if any(" law: " in u for u in line)]

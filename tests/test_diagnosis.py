@@ -138,10 +138,7 @@ def test_synthetic_gear_ripple_is_named_with_its_order_and_parameters_stay_put()
     assert 0.38 < rep["shrinkage"]["overall"]["shrinkage"] < 0.52
     assert rep["shrinkage"]["overall"]["ci95"][0] > 0.3
     # with the right term added, Eq. 4's parameters move back to the truth
-    # (g_T: the torque reading's gain against the load's, in the nominal where the load both
-    # drives and resists the joint, none here)
-    truth = dict(zip(("I_xx", "mr_x", "mr_y", "f_v", "f_c", "g_T"),
-                     (6685.0, 20.8, -34.5, 8683.0, 2353.0, 0.0)))
+    truth = dict(zip(("I_xx", "mr_x", "mr_y", "f_v", "f_c"), (6685.0, 20.8, -34.5, 8683.0, 2353.0)))
     moved = rep["shrinkage"]["parameters_moved"]
     assert all(abs(m["after"] - truth[k]) < 4 * m["se_after"] for k, m in moved.items())
     assert any(abs(m["before"] - truth[k]) > 4 * m["se_before"] for k, m in moved.items())
@@ -230,12 +227,10 @@ def test_cli_json_has_the_issue_keys(campaigns, tmp_path, capsys):
     # best first: by held-out shrinkage across both laws (within one law: by held-out RMSE)
     sh = [c["shrinkage"] for c in rep["candidates"]]
     assert sh == sorted(sh, reverse=True)
-    for law in (rep["baseline"]["model"], rep["transmission"]["baseline"]["model"]):
+    for law in ("eq4", rep["transmission"]["baseline"]["model"]):
         rm = [c["rmse_test"] for c in rep["candidates"] if c["model"] == law]
         assert rm == sorted(rm)
-    # the emulator's load drives the joint in half the runs: the nominal reads the torque
-    # reading's gain too (estimator.models.with_torque_gain)
-    assert {c["model"] for c in rep["candidates"]} == {"eq4+torque_gain", "eq11+stiffening"}
+    assert {c["model"] for c in rep["candidates"]} == {"eq4", "eq11+stiffening"}
     assert rep["transmission"]["verdict"]["status"] == "none"
     assert rep["verdict"]["status"] in ("explained", "none", "partly_explained", "unexplained")
     assert rep["verdict"]["effects"] == ["gear_ripple"]
@@ -244,12 +239,12 @@ def test_cli_json_has_the_issue_keys(campaigns, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "verdict: explained — gear_ripple" in text
     assert "twist–torque law eq11+stiffening" in text and "on eq11+stiffening" in text
-    assert "on eq4+torque_gain" in text
+    assert "on eq4" in text
     # --transmission none: the torque balance alone
     assert main(["diagnose", "--train", *paths["train"], "--test", *paths["test"], "--json",
                  "--transmission", "none"]) == 0
     rep = json.loads(capsys.readouterr().out)
-    assert "transmission" not in rep and {c["model"] for c in rep["candidates"]} == {"eq4+torque_gain"}
+    assert "transmission" not in rep and {c["model"] for c in rep["candidates"]} == {"eq4"}
 
 
 @pytest.mark.slow
@@ -304,7 +299,7 @@ def test_each_withheld_transmission_effect_alone_is_named(tx_reports, effect):
     row = next(c for c in rep["candidates"] if c["effect"] == effect)
     assert row["significant"] and row["model"] == tx["baseline"]["model"]
     assert tx["candidates"][0]["effect"] == effect
-    assert rep["verdict"]["laws"]["eq4+torque_gain"]["status"] == "none"
+    assert rep["verdict"]["laws"]["eq4"]["status"] == "none"
     sh = tx["shrinkage"]["overall"]
     assert sh["shrinkage"] > 0.05 and sh["ci95"][0] > 0
 

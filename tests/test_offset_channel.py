@@ -59,7 +59,7 @@ def test_a_drift_of_the_load_reading_is_outside_the_vocabulary(campaign):
     assert v["offset_channel"]["channel"] == "torque_load", v["offset_channel"]
     assert v["offset_channel"]["share_on_torque_channel"] < 0.5
     assert v["outside_vocabulary"] and "load reading" in v["summary"]
-    assert v["laws"]["eq4"]["effects"] == []
+    assert v["laws"][rep["baseline"]["model"]]["effects"] == []
 
 
 def test_without_the_twist_law_the_two_cannot_be_told_apart(campaign):
