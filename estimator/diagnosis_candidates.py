@@ -17,10 +17,12 @@ from estimator.models import LinearModel, physical_objection
 
 
 def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
-                disp: str = "torsion", kind: str = "output") -> list[dict]:
+                disp: str = "torsion", kind: str = "output", gain_possible: bool = False
+                ) -> list[dict]:
     """Shapes to search for effect `name`, scaled by the training signals; `disp` is the
     displacement a transmission effect acts on (the twist, or q on a law without one), `kind`
-    the law's (estimator.models.LinearModel.kind)."""
+    the law's (estimator.models.LinearModel.kind); `gain_possible`: the runs can tell the torque
+    reading's gain from a load-dependent friction (estimator.diagnosis)."""
     if name == "stribeck":
         top = float(np.quantile(np.abs(sig["qd"]), 0.99)) or 1.0
         return [{"v_s": r * top, "delta": d} for d in opt.stribeck_delta
@@ -76,8 +78,10 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
     if name == "load_dependent_friction" and kind == "output":
         # a gear's: one law for both power-flow directions, or one coefficient per direction
         # (driving or back-driven; on a system without a gear the split column is only an
-        # energy loss per cycle, which hysteresis also is)
-        return [{}, {"power_flow": 1.0}]
+        # energy loss per cycle, which hysteresis also is); where the runs can tell the torque
+        # reading's gain, a coefficient per power-flow sign is μ ± g_T: the plain law and that
+        # gain (estimator.models.with_torque_gain), so only the plain law is tried
+        return [{}] if gain_possible else [{}, {"power_flow": 1.0}]
     return [{}]
 
 
@@ -131,9 +135,7 @@ def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> li
 def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
                       gain_possible: bool = False
                       ) -> tuple[dict[str, list[tuple[dict, LinearModel]]], dict[str, str]]:
-    """Each effect's models over its shape grid. `gain_possible`: the runs can tell the torque
-    reading's gain from a load-dependent friction (estimator.diagnosis), and then that friction's
-    per-power-flow shape is not tried: it is the plain law plus that gain."""
+    """Each effect's models over its shape grid (`gain_possible`: see _shape_grid)."""
     names = opt.candidates or fx.EFFECT_NAMES
     out, skipped = {}, {}
     for name in names:
@@ -149,11 +151,7 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
             skipped[name] = "diagnosed on the twist–torque law (the runs carry the twist)"
             continue
         try:
-            grid = _shape_grid(name, sig, opt, e_train, disp, model.kind)
-            if gain_possible:
-                # a coefficient per power-flow sign is μ ± g_T: nothing beyond the plain law
-                # and the gain of the torque reading (estimator.models.with_torque_gain)
-                grid = [sh for sh in grid if not sh.get("power_flow")]
+            grid = _shape_grid(name, sig, opt, e_train, disp, model.kind, gain_possible)
             models = [(shape, model.with_effect(name, **shape)) for shape in grid]
             models[0][1].design({k: v[:8] for k, v in sig.items()})
         except KeyError as exc:

@@ -135,7 +135,8 @@ def with_torque_gain(model: LinearModel) -> LinearModel:
     0.1 % low against the load cell). Two transducers of class 0.1 % differ by that much at
     120 kN·m, ~100 N·m, a sensor's calibration and not a gap of the joint; it is the same column
     as load_dependent_friction's μ·|T|·sgn q̇ wherever the load resists the motion, so the
-    diagnosis adds it only for runs where the load also drives (estimator.diagnosis)."""
+    diagnosis tries it only on runs where the load also drives, and keeps it only when it is
+    significant beside the effects chosen (estimator.diagnosis)."""
     term = Term("torque reading's gain against the load reading", ("g_T",), ("-",),
                 lambda s: np.asarray(s["torque"], dtype=float), ("torque",))
     return replace(model, name=f"{model.name}+{TORQUE_GAIN}", terms=model.terms + (term,),
