@@ -3,6 +3,7 @@ sockets, an independent Modbus client (mbpoll), the PLC watchdog, a PLC crash an
 malformed requests against the running process."""
 
 import asyncio
+import dataclasses
 import math
 import re
 import shutil
@@ -13,7 +14,7 @@ import time
 
 import pytest
 
-from daq.drives import DriveMaster
+from daq.drives import DriveError, DriveMaster
 from daq.plc import PlcClient
 from daq.rig import Rig, _cancel_all
 from drivers_harness import SLACK_S, SLACK_STANDIN, StandinProcess, await_for, free_port
@@ -148,53 +149,87 @@ def test_malformed_requests_never_crash_the_standin(plc_only):
     assert ok[7] == 3 and ok[8] == 2 * REGISTER_MAP.status.count
 
 
-def test_service_heartbeat_lost_standin_makes_itself_safe_within_1s():
-    with StandinProcess([]) as sp:
-        async def body():
-            s = Settings(plc_port=sp.plc_port, can_port=sp.can_port, drive_enable_timeout=0.5)
-            c = PlcClient(s)
-            await c.connect()
-            m = DriveMaster(s)
-            hb = asyncio.create_task(c.heartbeat_loop(0.1))
+class _TrippedDuringSetUp(Exception):
+    """The PLC's watchdog tripped before the test stopped the heartbeat: the host stalled the
+    heartbeat or the stand-in for over 0.5 s (it does on a loaded 2-core CI host, see SLACK_S)."""
+
+
+def _heartbeat_loss_attempt(sp: StandinProcess) -> None:
+    """Drives enabled and the dynamometer loaded with a live heartbeat, then the heartbeat stops:
+    the stand-in must make itself safe within 1 s by its own clock."""
+    def tripped_early() -> bool:
+        return any("PLC trip" in ln for ln in sp.lines)
+
+    async def body():
+        s = Settings(plc_port=sp.plc_port, can_port=sp.can_port)
+        c = PlcClient(s)
+        await c.connect()
+        m = DriveMaster(s)
+        hb = asyncio.create_task(c.heartbeat_loop(0.1))
+        try:
             try:
                 await asyncio.to_thread(m.open)
                 await asyncio.to_thread(m.configure)
                 await asyncio.to_thread(m.start)
-                m.set_speed(50.0)
-                await c.write_commands({"dyno_torque_sp": 40e3,
-                                        "command_bits": CB.bit("pump_on")})
-                await asyncio.sleep(0.5)
-                # the service's heartbeat stops (cancelled until it ends: Python 3.11's
-                # wait_for inside a pymodbus request can swallow one cancellation)
-                assert not await _cancel_all([hb])
-                st = await c.read_status()
-                assert st["plc_mode"] == 1 and st["torque_cmd"] == pytest.approx(40e3)
-                assert all(d.state == "OPERATION ENABLED" for d in m.drives)
-                t_last = c.last_beat                   # the PLC's last heartbeat change
+            except Exception:
+                if tripped_early():
+                    raise _TrippedDuringSetUp(sp.lines) from None
+                raise
+            m.set_speed(50.0)
+            await c.write_commands({"dyno_torque_sp": 40e3,
+                                    "command_bits": CB.bit("pump_on")})
+            await asyncio.sleep(0.5)
+            # the service's heartbeat stops (cancelled until it ends: Python 3.11's
+            # wait_for inside a pymodbus request can swallow one cancellation)
+            assert not await _cancel_all([hb])
+            if tripped_early():
+                raise _TrippedDuringSetUp(sp.lines)
+            st = await c.read_status()
+            assert st["plc_mode"] == 1 and st["torque_cmd"] == pytest.approx(40e3)
+            assert all(d.state == "OPERATION ENABLED" for d in m.drives)
+            t_last = c.last_beat                   # the PLC's last heartbeat change
 
-                async def safe():
-                    st = await c.read_status()
-                    return (int(st["status_bits"]) & SB.bit("watchdog_fault")
-                            and st["torque_cmd"] == 0.0 and st["plc_mode"] == 2
-                            and all(d.state != "OPERATION ENABLED" for d in m.drives))
-                assert await await_for(safe, timeout=3.0, step=0.02)
-                assert time.monotonic() - t_last > 0.45
+            async def safe():
                 st = await c.read_status()
-                assert st["fault_code"] == 1 and int(st["status_bits"]) & SB.bit("drives_stopped")
-                # safe within 1 s of the last heartbeat change, by the PLC's own clock (what its
-                # diagnostic buffer says; this client's view is late when the host is loaded)
-                trip = [float(m.group(1)) for ln in sp.lines for m in
-                        [re.search(r"PLC trip: service heartbeat unchanged for ([\d.]+) s", ln)] if m]
-                assert trip and 0.5 <= trip[0] < 1.0, trip  # logged to the ms: 0.5004 s is "0.500"
-                assert {D.state_of(d.statusword) for d in m.drives} <= {
-                    "QUICK STOP ACTIVE", "SWITCH ON DISABLED"}
-                # OFF3 holds: the master cannot re-enable while the PLC fault is latched
-                with pytest.raises(Exception):
-                    await asyncio.to_thread(m.enable, m.drives[0])
-            finally:
-                await asyncio.to_thread(m.close)
-                c.close()
-        asyncio.run(body())
+                return (int(st["status_bits"]) & SB.bit("watchdog_fault")
+                        and st["torque_cmd"] == 0.0 and st["plc_mode"] == 2
+                        and all(d.state != "OPERATION ENABLED" for d in m.drives))
+            assert await await_for(safe, timeout=3.0, step=0.02)
+            assert time.monotonic() - t_last > 0.45
+            st = await c.read_status()
+            assert st["fault_code"] == 1 and int(st["status_bits"]) & SB.bit("drives_stopped")
+            # safe within 1 s of the last heartbeat change, by the PLC's own clock (what its
+            # diagnostic buffer says; this client's view is late when the host is loaded)
+            trip = [float(m.group(1)) for ln in sp.lines for m in
+                    [re.search(r"PLC trip: service heartbeat unchanged for ([\d.]+) s", ln)] if m]
+            assert trip and 0.5 <= trip[0] < 1.0, trip  # logged to the ms: 0.5004 s is "0.500"
+            assert {D.state_of(d.statusword) for d in m.drives} <= {
+                "QUICK STOP ACTIVE", "SWITCH ON DISABLED"}
+            # OFF3 holds: the master cannot re-enable while the PLC fault is latched (a short
+            # enable timeout only here, so the refusal is quick)
+            m.settings = dataclasses.replace(s, drive_enable_timeout=0.5)
+            with pytest.raises(DriveError, match="stuck in"):
+                await asyncio.to_thread(m.enable, m.drives[0])
+        finally:
+            await _cancel_all([hb])
+            await asyncio.to_thread(m.close)
+            c.close()
+    asyncio.run(body())
+
+
+def test_service_heartbeat_lost_standin_makes_itself_safe_within_1s():
+    """At the stand-in's default 0.5 s watchdog. A trip while the heartbeat still ran (the host
+    stalled it) is that watchdog doing its job but not this test's case: the attempt is made
+    again on a fresh stand-in, at most three times."""
+    early = []
+    for _ in range(3):
+        with StandinProcess([]) as sp:
+            try:
+                _heartbeat_loss_attempt(sp)
+                return
+            except _TrippedDuringSetUp as e:
+                early.append(e.args[0])
+    pytest.fail(f"the PLC tripped before the heartbeat stopped in 3 attempts: {early}")
 
 
 def test_plc_killed_and_restarted_reconnect_gap_recorded_nothing_lost():
