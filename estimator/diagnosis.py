@@ -215,60 +215,35 @@ def _series(pooled: dict, n_train: int, model: LinearModel, e0: np.ndarray, e1: 
                         for r in flagged if r["family"] in fams]}
 
 
-def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
-                      base: str | LinearModel = "eq4", prep: PrepOptions | None = None,
-                      options: DiagnosisOptions | None = None,
-                      transmission: str | LinearModel | None = "auto") -> Diagnosis:
-    """diagnose() plus the fits it made (see Diagnosis)."""
-    if not train_runs or not test_runs:
-        raise ValueError("a diagnosis needs at least one training run and one held-out run")
-    opt = options or DiagnosisOptions()
-    refuse_diverged(train_runs, test_runs, opt.diverged_peak_ratio)
-    given = (train_runs, test_runs, prep)
-    train_runs = [lag_corrected(r) for r in train_runs]
-    test_runs = [lag_corrected(r) for r in test_runs]
-    prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)
-    model = base_model(base)
-    law = "twist–torque law" if model.kind == "transmission" else "output law"
-    progress(f"{law}: nominal fit", 0, 1)
-    avail = set(_available(train_runs[0], prep))
-    for r in list(train_runs[1:]) + list(test_runs):
-        avail &= set(_available(r, prep))
-    need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
-    law_prep, mode = below_drive_train_mode(list(train_runs) + list(test_runs), prep, model,
-                                            opt.transient_s, opt.mode_band_excess, opt.z_gain)
-    law_prep, velocity = velocity_source(train_runs, law_prep, model, opt.transient_s,
-                                         opt.z_gain, opt.block)
-    pooled = _pool(list(train_runs) + list(test_runs), need, law_prep, 0)
-    n_transient = 0
-    if model.kind == "output" and opt.transient_s > 0 and "qd" in pooled:
-        steady = ~transient_mask(pooled, opt.transient_s,
-                                 output_encoder_step(list(train_runs) + list(test_runs)))
-        n_transient = int((~steady).sum())
-        pooled = _slice(pooled, steady)
-    is_train = pooled["run"] < len(train_runs)
-    tr, te = _slice(pooled, is_train), _slice(pooled, ~is_train)
-    if "qd" not in pooled or "torque" not in pooled:
-        raise ValueError("the diagnosis needs a velocity (or position) and a torque channel")
-    for part, sig in (("training", tr), ("held-out", te)):
-        if not sig["t"].size:
-            why = (f"{n_transient} samples lie at or within {opt.transient_s:g} s of a rest, "
-                   "near-zero speed (|q̇|, or the mean speed over that time, below 5 % of the "
-                   "campaign's top speed: one run much faster than the others makes that every "
-                   "other run's) and are left out"
-                   if n_transient else f"every {part} sample misses a channel the law needs")
-            raise ValueError(f"the {law} has no {part} sample left to diagnose on: {why}")
-    driven = driving_share(tr, opt.driving_load_min_rel)
-    gain_possible = (model.kind == "output" and "torque_load" in model.target_requires
-                     and bool(np.all(tr.get("has_load", False))) and driven is not None
-                     and min(driven, 1.0 - driven) >= opt.torque_gain_min_share)
-    if gain_possible and opt.torque_gain:
-        model = with_torque_gain(model)
+@dataclass
+class _Search:
+    """One law's search on prepared samples: the nominal fit, each candidate scored alone on
+    top of it, and the effects the greedy search chose."""
+    base_fit: _Fit
+    e_all: np.ndarray
+    """The nominal's residual on every pooled sample (training and held-out)."""
+    angle_order: int | None
+    where: dict
+    """The nominal residual's structure (_structure)."""
+    table: list[dict]
+    skipped: dict[str, str]
+    steps: list[dict]
+    rejected: list[dict]
+    chosen: list[str]
+    cur: _Fit
+    """The nominal with the chosen effects."""
+    floor: float
+    floor_white: float
+    floor_sensor: float | None
 
-    block = block_size(pooled["run"], opt.block)
-    blocks = block_ids(pooled["run"], block)
+
+def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
+            is_train: np.ndarray, blocks: np.ndarray, test_runs: Sequence[RunData],
+            law_prep: PrepOptions, opt: DiagnosisOptions) -> _Search:
+    """Fit `model` (the nominal), score every candidate effect on top of it and add effects
+    greedily while the held-out gain stays significant; progress stages are named `law`."""
     te_blocks = blocks[~is_train]
-
+    progress(f"{law}: nominal fit", 0, 1)
     base_fit = _fit(model, {}, tr, te)
     n_base = base_fit.theta.size
     e_all = np.empty(pooled["run"].size)
@@ -278,7 +253,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
     where = _structure(e_all, pooled, blocks, angle_order, opt)
     progress(f"{law}: nominal fit", 1, 1)
 
-    cands, skipped = _candidate_models(model, tr, opt, base_fit.e_train, gain_possible)
+    cands, skipped = _candidate_models(model, tr, opt, base_fit.e_train)
     fits = {}
     progress(f"{law}: candidates", 0, len(cands))
     for name, ms in cands.items():
@@ -326,7 +301,7 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
             progress(stage, 0, len(trial))
         else:
             grids, _ = _candidate_models(cur.model, tr, replace(opt, candidates=tuple(remaining)),
-                                         cur.e_train, gain_possible)
+                                         cur.e_train)
             trial = {}
             progress(stage, 0, len(grids))
             for n, ms in grids.items():
@@ -368,15 +343,78 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         chosen.append(best)
         cur = trial[best]
         remaining.remove(best)
+    return _Search(base_fit=base_fit, e_all=e_all, angle_order=angle_order, where=where,
+                   table=table, skipped=skipped, steps=steps, rejected=rejected, chosen=chosen,
+                   cur=cur, floor=floor, floor_white=floor_white, floor_sensor=floor_sensor)
+
+
+def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
+                      base: str | LinearModel = "eq4", prep: PrepOptions | None = None,
+                      options: DiagnosisOptions | None = None,
+                      transmission: str | LinearModel | None = "auto") -> Diagnosis:
+    """diagnose() plus the fits it made (see Diagnosis)."""
+    if not train_runs or not test_runs:
+        raise ValueError("a diagnosis needs at least one training run and one held-out run")
+    opt = options or DiagnosisOptions()
+    refuse_diverged(train_runs, test_runs, opt.diverged_peak_ratio)
+    train_runs = [lag_corrected(r) for r in train_runs]
+    test_runs = [lag_corrected(r) for r in test_runs]
+    prep = working_rate(list(train_runs) + list(test_runs), prep or PrepOptions(), opt)
+    model = base_model(base)
+    law = "twist–torque law" if model.kind == "transmission" else "output law"
+    progress(f"{law}: nominal fit", 0, 1)
+    avail = set(_available(train_runs[0], prep))
+    for r in list(train_runs[1:]) + list(test_runs):
+        avail &= set(_available(r, prep))
+    need = list(dict.fromkeys(list(model.requires) + [s for s in OPTIONAL_SIGNALS if s in avail]))
+    law_prep, mode = below_drive_train_mode(list(train_runs) + list(test_runs), prep, model,
+                                            opt.transient_s, opt.mode_band_excess, opt.z_gain)
+    law_prep, velocity = velocity_source(train_runs, law_prep, model, opt.transient_s,
+                                         opt.z_gain, opt.block)
+    pooled = _pool(list(train_runs) + list(test_runs), need, law_prep, 0)
+    n_transient = 0
+    if model.kind == "output" and opt.transient_s > 0 and "qd" in pooled:
+        steady = ~transient_mask(pooled, opt.transient_s,
+                                 output_encoder_step(list(train_runs) + list(test_runs)))
+        n_transient = int((~steady).sum())
+        pooled = _slice(pooled, steady)
+    is_train = pooled["run"] < len(train_runs)
+    tr, te = _slice(pooled, is_train), _slice(pooled, ~is_train)
+    if "qd" not in pooled or "torque" not in pooled:
+        raise ValueError("the diagnosis needs a velocity (or position) and a torque channel")
+    for part, sig in (("training", tr), ("held-out", te)):
+        if not sig["t"].size:
+            why = (f"{n_transient} samples lie at or within {opt.transient_s:g} s of a rest, "
+                   "near-zero speed (|q̇|, or the mean speed over that time, below 5 % of the "
+                   "campaign's top speed: one run much faster than the others makes that every "
+                   "other run's) and are left out"
+                   if n_transient else f"every {part} sample misses a channel the law needs")
+            raise ValueError(f"the {law} has no {part} sample left to diagnose on: {why}")
+    driven = driving_share(tr, opt.driving_load_min_rel)
+    gain_possible = (model.kind == "output" and "torque_load" in model.target_requires
+                     and bool(np.all(tr.get("has_load", False))) and driven is not None
+                     and min(driven, 1.0 - driven) >= opt.torque_gain_min_share)
+    block = block_size(pooled["run"], opt.block)
+    blocks = block_ids(pooled["run"], block)
+    te_blocks = blocks[~is_train]
+    if gain_possible and opt.torque_gain:
+        model = with_torque_gain(model)
+    found = _search(model, law, tr, te, pooled, is_train, blocks, test_runs, law_prep, opt)
     if gain_possible and opt.torque_gain is None:
         # the gain of the torque reading is a calibration, tried beside the effects chosen: its
         # column shares the load ramp with a load-dependent friction (driving and resisting
         # runs apart) and with a drifting offset, so in the nominal from the start it would take
         # their part before they are tried; significant here, the search runs again with it
-        with_gain = _fit(with_torque_gain(cur.model), {}, tr, te)
-        if _score(cur, with_gain, te_blocks, opt, tr)["significant"]:
-            return diagnose_detailed(given[0], given[1], base, given[2],
-                                     replace(opt, torque_gain=True), transmission)
+        # (on the same prepared samples, its stages named for the gain)
+        gain_fit = _fit(with_torque_gain(found.cur.model), {}, tr, te)
+        if _score(found.cur, gain_fit, te_blocks, opt, tr)["significant"]:
+            model, law = with_torque_gain(model), f"{law} with the torque reading's gain"
+            found = _search(model, law, tr, te, pooled, is_train, blocks, test_runs, law_prep,
+                            opt)
+    base_fit, cur, chosen, steps = found.base_fit, found.cur, found.chosen, found.steps
+    e_all, angle_order, where, table = found.e_all, found.angle_order, found.where, found.table
+    floor, floor_white, floor_sensor = found.floor, found.floor_white, found.floor_sensor
+    n_base = base_fit.theta.size
 
     e_fin = np.empty_like(e_all)
     e_fin[is_train], e_fin[~is_train] = cur.e_train, cur.e_test
@@ -436,10 +474,10 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
         "tests": {k: where[k] for k in ("whiteness", "cross_correlation", "spectral_line",
                                         "angle_line", "structured", "reasons")},
         "candidates": table,
-        "skipped": skipped,
+        "skipped": found.skipped,
         "ambiguities": [list(a) for a in ambiguities],
         "steps": steps,
-        "rejected": rejected,
+        "rejected": found.rejected,
         "transient_samples_left_out": n_transient,
         "drive_train_mode": mode,
         "velocity": velocity,

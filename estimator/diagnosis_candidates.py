@@ -17,12 +17,12 @@ from estimator.models import LinearModel, physical_objection
 
 
 def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
-                disp: str = "torsion", kind: str = "output", gain_possible: bool = False
+                disp: str = "torsion", kind: str = "output", with_gain: bool = False
                 ) -> list[dict]:
     """Shapes to search for effect `name`, scaled by the training signals; `disp` is the
     displacement a transmission effect acts on (the twist, or q on a law without one), `kind`
-    the law's (estimator.models.LinearModel.kind); `gain_possible`: the runs can tell the torque
-    reading's gain from a load-dependent friction (estimator.diagnosis)."""
+    the law's (estimator.models.LinearModel.kind); `with_gain`: the law carries the torque
+    reading's gain against the load reading (estimator.models.with_torque_gain)."""
     if name == "stribeck":
         top = float(np.quantile(np.abs(sig["qd"]), 0.99)) or 1.0
         return [{"v_s": r * top, "delta": d} for d in opt.stribeck_delta
@@ -78,10 +78,11 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
     if name == "load_dependent_friction" and kind == "output":
         # a gear's: one law for both power-flow directions, or one coefficient per direction
         # (driving or back-driven; on a system without a gear the split column is only an
-        # energy loss per cycle, which hysteresis also is); where the runs can tell the torque
-        # reading's gain, a coefficient per power-flow sign is μ ± g_T: the plain law and that
-        # gain (estimator.models.with_torque_gain), so only the plain law is tried
-        return [{}] if gain_possible else [{}, {"power_flow": 1.0}]
+        # energy loss per cycle, which hysteresis also is); a coefficient per power-flow sign
+        # is μ ± g_T where the load also drives the joint, so beside the torque reading's gain
+        # (estimator.models.with_torque_gain) only the plain law is tried, and without it a
+        # per-power-flow μ clearly below zero is that gain (PHYSICAL_SIGN_BEYOND_NOISE)
+        return [{}] if with_gain else [{}, {"power_flow": 1.0}]
     return [{}]
 
 
@@ -132,10 +133,9 @@ def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> li
     return out
 
 
-def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
-                      gain_possible: bool = False
+def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
                       ) -> tuple[dict[str, list[tuple[dict, LinearModel]]], dict[str, str]]:
-    """Each effect's models over its shape grid (`gain_possible`: see _shape_grid)."""
+    """Each effect's models over its shape grid."""
     names = opt.candidates or fx.EFFECT_NAMES
     out, skipped = {}, {}
     for name in names:
@@ -151,7 +151,8 @@ def _candidate_models(model: LinearModel, sig: dict, opt: DiagnosisOptions, e_tr
             skipped[name] = "diagnosed on the twist–torque law (the runs carry the twist)"
             continue
         try:
-            grid = _shape_grid(name, sig, opt, e_train, disp, model.kind, gain_possible)
+            grid = _shape_grid(name, sig, opt, e_train, disp, model.kind,
+                               "g_T" in model.param_names)
             models = [(shape, model.with_effect(name, **shape)) for shape in grid]
             models[0][1].design({k: v[:8] for k, v in sig.items()})
         except KeyError as exc:
@@ -214,9 +215,10 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
     # the best shape whose fitted effect has its physics' sign (a dead zone that stiffens the
     # centre is no backlash); none: the best one, with its objection
     pick = next((i for _, i in ranked
-                 if physical_objection(models[i][1], fit_of(i).theta) is None), ranked[0][1])
+                 if physical_objection(models[i][1], fit_of(i).theta, fit_of(i).se) is None),
+                ranked[0][1])
     shape, m = models[pick]
-    objection = physical_objection(m, fit_of(pick).theta)
+    objection = physical_objection(m, fit_of(pick).theta, fit_of(pick).se)
     if "beta" in shape and m.kind != "transmission":
         # the profile RSS over Bouc–Wen shapes has several basins: refine the three best
         # grid points and keep the best result (unless only the grid's has its physics' sign)
@@ -227,7 +229,7 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
         if objection is not None or physical_objection(m2, r.theta) is None:
             shape, m = s2, m2
     f = _fit(m, shape, tr, te)
-    return replace(f, objection=physical_objection(f.model, f.theta))
+    return replace(f, objection=physical_objection(f.model, f.theta, f.se))
 
 
 def _refined_bouc_wen(shape: dict, m: LinearModel, tr: dict) -> tuple[dict, LinearModel]:

@@ -11,7 +11,9 @@ with `stage` the step it is in, named with the law it works on — for each law 
 training runs), '<law>: scoring' (each candidate scored on the held-out runs), '<law>: greedy
 round k' (the candidates left re-fitted on top of the k − 1 effects chosen), '<law>:
 shrinkage', with <law> 'output law' or 'twist–torque law' (whose nominal shape is fitted first:
-'twist–torque law: nominal shape') — `done` the units of that step finished and `total` its
+'twist–torque law: nominal shape'); when the output law's search ends with the torque reading's
+gain significant, that law is searched again as <law> 'output law with the torque reading's
+gain' (estimator.models.with_torque_gain) — `done` the units of that step finished and `total` its
 units (candidates; 1 for a single fit). Each stage
 reports done = 0 when it starts and done = total when it ends, `done` non-decreasing within a
 stage; a stage's name is not reported again after a later stage started. The calls cost

@@ -309,19 +309,43 @@ that rises with the load, which a gear does not have; a torque transducer's gain
 the load resists the motion, draws it."""
 
 
-def physical_objection(m: LinearModel, theta: np.ndarray) -> str | None:
-    """Why the fit `theta` of `m` is not the physics of its last effect (PHYSICAL_SIGN), or
-    None when it is."""
-    if not m.effects or m.effects[-1] not in PHYSICAL_SIGN:
+PHYSICAL_SIGN_BEYOND_NOISE: dict[str, tuple[tuple[str, ...], int]] = {
+    "load_dependent_friction": (("mu_back",), 1)}
+"""Coefficients whose wrong sign is an objection only when it lies beyond SIGN_Z standard errors
+of the fit: the power-flow shape's back-driven μ_back, zero for a gear that loses only while the
+motors drive and so as often a little negative as positive. Where the load also drives the joint,
+μ_drive and μ_back are μ ± g_T for a torque reading whose gain differs from the load reading's
+(estimator.models.with_torque_gain): a friction coefficient clearly below zero per power flow is
+that gain, not a gear."""
+
+SIGN_Z = 3.0
+"""Standard errors by which a PHYSICAL_SIGN_BEYOND_NOISE coefficient must lie on the wrong side
+of zero to object."""
+
+
+def physical_objection(m: LinearModel, theta: np.ndarray,
+                       se: np.ndarray | None = None) -> str | None:
+    """Why the fit `theta` (standard errors `se`) of `m` is not the physics of its last effect
+    (PHYSICAL_SIGN; PHYSICAL_SIGN_BEYOND_NOISE when `se` is given), or None when it is."""
+    if not m.effects:
         return None
-    names, sign = PHYSICAL_SIGN[m.effects[-1]]
-    params = list(m.param_names)
+    effect, params = m.effects[-1], list(m.param_names)
+    names, sign = PHYSICAL_SIGN.get(effect, ((), 1))
     for name in names:
         if name not in params:
             continue
         value = float(theta[params.index(name)])
         if value * sign <= 0:
-            return f"{name} = {value:.3g} has the sign no {m.effects[-1]} has"
+            return f"{name} = {value:.3g} has the sign no {effect} has"
+    names, sign = PHYSICAL_SIGN_BEYOND_NOISE.get(effect, ((), 1))
+    for name in names:
+        if se is None or name not in params:
+            continue
+        i = params.index(name)
+        value, err = float(theta[i]), float(se[i])
+        if value * sign < -SIGN_Z * err:
+            return (f"{name} = {value:.3g} ± {err:.2g} has the sign no {effect} has, beyond "
+                    f"{SIGN_Z:g} standard errors")
     return None
 
 

@@ -72,3 +72,36 @@ def test_the_model_name_a_report_stores_rebuilds_the_model():
     m = model_from_spec("eq4+torque_gain+stribeck")
     assert m.name == "eq4+torque_gain+stribeck"
     assert {"g_T", "f_s", "f_c"} <= set(m.param_names)
+
+
+def test_the_search_again_with_the_gain_reuses_the_prepared_samples_and_names_its_stages(
+        monkeypatch):
+    """When the gain is adopted after the search, the law is searched again on the samples
+    already prepared (the velocity is chosen once per law) and the second search's progress
+    stages carry their own name, so no stage is reported again after a later one began
+    (estimator.diagnosis_progress's contract)."""
+    import estimator.diagnosis as dg
+    from estimator import diagnosis_progress
+    chosen_velocity = []
+    real = dg.velocity_source
+
+    def counted(*a, **k):
+        chosen_velocity.append(1)
+        return real(*a, **k)
+    monkeypatch.setattr(dg, "velocity_source", counted)
+    tr, te = _campaign([1, -1, 1, -1, 1, -1, 1, -1])
+    calls: list[tuple[str, int, int]] = []
+    with diagnosis_progress.reporting(lambda s, d, t: calls.append((s, d, t))):
+        rep = diagnose(tr, te, "eq4", transmission=None)
+    assert rep["baseline"]["model"] == "eq4+torque_gain"
+    assert len(chosen_velocity) == 1
+    stages = list(dict.fromkeys(s for s, _, _ in calls))
+    spans = [s for k, (s, _, _) in enumerate(calls) if k == 0 or calls[k - 1][0] != s]
+    assert spans == stages
+    for stage in stages:
+        done = [d for s, d, _ in calls if s == stage]
+        assert done[0] == 0 and done == sorted(done), (stage, done)
+    again = "output law with the torque reading's gain"
+    assert "output law: greedy round 1" in stages
+    assert stages.index(f"{again}: nominal fit") > stages.index("output law: greedy round 1")
+    assert stages[-1] == f"{again}: shrinkage"

@@ -445,3 +445,16 @@ def test_rig_qs_torque_reading_gain_is_read_by_the_nominal_where_its_load_also_d
     assert rep["baseline"]["model"] == "eq4+torque_gain"
     assert rep["baseline"]["params"]["g_T"]["value"] == pytest.approx(mismatch, abs=5e-4)
     assert rep["verdict"]["status"] == "none", rep["verdict"]["summary"]
+
+
+@pytest.mark.slow
+def test_a_loss_only_while_the_motors_drive_is_named_where_the_load_also_drives():
+    """Rig C's `power_flow` load-dependent friction (a gear that loses only while the motors
+    drive) on the 4 + 2-run 25 Hz campaign, whose load drives the joint in some runs: a
+    coefficient per power flow is μ ± g_T there, and it is tried beside the torque reading's
+    gain; a per-power-flow μ below zero beyond its standard errors is that gain, not a gear
+    (estimator.models.PHYSICAL_SIGN_BEYOND_NOISE). Before, the shape was not tried on such runs
+    and the campaign said `asymmetric_friction`."""
+    c = run_cell(RIG_C_FEW, 2209, "load_dependent_friction", "power_flow", 1.0, "single")
+    assert c["named_first"] == "load_dependent_friction", c
+    assert c["extra"] == [], c
