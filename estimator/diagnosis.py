@@ -313,9 +313,10 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
         if not scored:
             break
         # the largest held-out gain among the significant candidates (a larger gain that is not
-        # significant is noise, and must not end the search before a significant one is added)
+        # significant is noise, and must not end the search before a significant one is added),
+        # those significant by their gain before those significant only by the blocks improved
         significant = sorted((n for n in scored if scored[n]["significant"]),
-                             key=lambda n: -scored[n]["gain"])
+                             key=lambda n: (scored[n]["concentrated"], -scored[n]["gain"]))
         # parsimony: an effect beyond the first must also help consistently across the runs
         # (held-out, and training runs left out one at a time): a one-sided sign test of its
         # per-run gains at opt.parsimony_alpha

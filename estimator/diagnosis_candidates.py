@@ -291,13 +291,22 @@ def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
     r0, r1 = _rmse(cur.e_test), _rmse(new.e_test)
     shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
     z = gain / se if np.isfinite(se) and se > 0 else 0.0
+    # a gain that sits in a few blocks (a lag's, at the torque steps) keeps z near √(those
+    # blocks); whether more blocks improve than chance gives does not depend on where it sits
+    ub, inv = np.unique(te_blocks, return_inverse=True)
+    n_up = int(np.sum(np.bincount(inv, weights=d) > 0))
+    z_sign = (n_up - ub.size / 2) / np.sqrt(ub.size / 4) if ub.size >= 3 else 0.0
+    ok = new.objection is None and shrink >= opt.min_shrinkage
+    by_gain = ok and z > opt.z_gain
+    by_blocks = ok and shrink >= opt.concentrated_min_shrinkage and z_sign > opt.z_gain
     return {"rmse_test": r1, "shrinkage": shrink,
             "shrinkage_predicted": _predicted(cur, new, r0, opt),
             "shrinkage_loro": (predicted_shrinkage(cur.model, new.model, tr) if tr is not None
                                else None),
             "gain": float(gain), "gain_se": float(se), "z": float(z),
-            "significant": bool(new.objection is None and z > opt.z_gain
-                                and shrink >= opt.min_shrinkage),
+            "z_blocks_improved": float(z_sign),
+            "significant": bool(by_gain or by_blocks),
+            "concentrated": bool(by_blocks and not by_gain),
             **({"objection": new.objection} if new.objection else {})}
 
 

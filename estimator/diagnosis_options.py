@@ -15,6 +15,11 @@ class DiagnosisOptions:
     """Held-out gain / SE needed to call a candidate significant."""
     min_shrinkage: float = 0.005
     """Smallest held-out RMSE shrinkage that counts (1 − after/before)."""
+    concentrated_min_shrinkage: float = 0.1
+    """A candidate whose held-out gain sits in a few blocks (a lag's, at the torque steps) has
+    a gain / SE that cannot grow with it; with at least this shrinkage it is significant also
+    when more of the held-out blocks improve than chance allows (sign test, z > z_gain);
+    docs/diagnosis.md."""
     max_effects: int = 3
     explained_fraction: float = 0.8
     """Share of the structured residual mean square the chosen effects must remove."""
@@ -143,3 +148,8 @@ class DiagnosisOptions:
     """With > 0, the report carries `series`: at most this many samples per run (evenly
     decimated) of the measured target, the nominal and the final model's predictions and the
     flagged regions' members, for plots (api reports); 0: no series."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.concentrated_min_shrinkage <= 1.0:   # NaN fails too
+            raise ValueError("concentrated_min_shrinkage must be a shrinkage in [0, 1], not "
+                             f"{self.concentrated_min_shrinkage!r}")
