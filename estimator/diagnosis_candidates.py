@@ -11,7 +11,8 @@ import numpy as np
 
 from core import effects as fx
 from estimator.diagnosis_options import DiagnosisOptions
-from estimator.diagnosis_stats import angle_lines, angle_periodogram, mean_se
+from estimator.diagnosis_stats import (angle_lines, angle_periodogram, blocks_improved_z,
+                                       mean_se)
 from estimator.least_squares import OLSResult, leave_one_group_out, ols
 from estimator.models import LinearModel, physical_objection
 
@@ -293,9 +294,7 @@ def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
     z = gain / se if np.isfinite(se) and se > 0 else 0.0
     # a gain that sits in a few blocks (a lag's, at the torque steps) keeps z near √(those
     # blocks); whether more blocks improve than chance gives does not depend on where it sits
-    ub, inv = np.unique(te_blocks, return_inverse=True)
-    n_up = int(np.sum(np.bincount(inv, weights=d) > 0))
-    z_sign = (n_up - ub.size / 2) / np.sqrt(ub.size / 4) if ub.size >= 3 else 0.0
+    z_sign = blocks_improved_z(d, te_blocks)
     ok = new.objection is None and shrink >= opt.min_shrinkage
     by_gain = ok and z > opt.z_gain
     by_blocks = ok and shrink >= opt.concentrated_min_shrinkage and z_sign > opt.z_gain
