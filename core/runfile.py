@@ -402,6 +402,13 @@ def _read_parquet(path: Path) -> pd.DataFrame:
             raise RunFileError(path, None, str(c), f"unsupported column type {dt}")
         if pd.api.types.is_bool_dtype(dt):
             raise RunFileError(path, None, str(c), "boolean column: expected numbers or text")
+        if pd.api.types.is_string_dtype(dt):
+            # Arrow-backed text is decoded lazily: bytes that are not UTF-8 fail only when the
+            # values are read, so read them here, where the fault can still name its column.
+            try:
+                df[c].to_numpy(dtype=object, na_value=None)
+            except Exception as exc:  # pyarrow's ArrowException family
+                raise RunFileError(path, None, str(c), f"unreadable text: {exc}") from None
     return df.reset_index(drop=True)
 
 

@@ -137,6 +137,19 @@ def test_byte_flips_in_samples_file(n, seed, fmt, flips):
     check_outcome(data, meta, *import_files(data))
 
 
+def test_text_that_is_not_utf8_in_a_parquet_file_is_refused_naming_its_column():
+    """Arrow decodes text lazily, so a Parquet file whose text bytes are not UTF-8 reads
+    without error and fails only when the values are used; the refusal must still name the
+    file and the column (it was the command's catch-all `ArrowException` line)."""
+    run = valid_run(12, 7)
+    data, meta = written(run, "parquet")
+    run.samples.to_parquet(data, index=False, compression=None)
+    raw = data.read_bytes()
+    assert b"hold" in raw
+    data.write_bytes(raw.replace(b"hold", b"\xffold"))
+    check_outcome(data, meta, *import_files(data), column="phase")
+
+
 BAD_CELLS = {"text": "abc", "inf": "inf", "-inf": "-Infinity", "bool": "True", "hex": "0x1F",
              "comma": "1,5", "huge": "1" + "0" * 400}
 """Cell texts a numeric column must refuse (the CSV writer quotes the decimal comma)."""
