@@ -259,6 +259,23 @@ def _law_shrinkages(rep: dict) -> list[tuple[float, float]]:
     return out
 
 
+def first_named(effect: str | None, laws: dict[str, list[str]],
+                skip: frozenset[str] = frozenset()) -> str | None:
+    """The effect named first on the law `effect` acts on (None when nothing is named there or
+    nothing was withheld), passing over the names in `skip` other than `effect` itself. An
+    effect the vocabulary places on two laws (gear ripple: a torque on the output or an angle
+    error in the twist) is named when it comes first on either."""
+    if not effect:
+        return None
+    on = {law: [e for e in names if e == effect or e not in skip] for law, names in laws.items()}
+    law_of_truth = "transmission" if effect in TRANSMISSION_EFFECTS else "output"
+    first = (on.get(law_of_truth) or [None])[0]
+    if (effect in VOCABULARY and VOCABULARY[effect].also_on and first != effect
+            and any(on.get(law, [])[:1] == [effect] for law in VOCABULARY[effect].also_on)):
+        first = effect
+    return first
+
+
 def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
              enr: float, kind: str) -> dict[str, Any]:
     """One campaign simulated with `effect` in `form` scaled to `enr` (none: nothing) and
@@ -279,13 +296,7 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
     rep = diagnose(train, test, "eq4", transmission="eq5")
     seconds = time.perf_counter() - t0
     laws = _law_effects(rep)
-    law_of_truth = "transmission" if effect in TRANSMISSION_EFFECTS else "output"
-    first = laws[law_of_truth][0] if effect and laws[law_of_truth] else None
-    # an effect the vocabulary places on two laws (gear ripple: a torque on the output or an
-    # angle error in the twist) is named when it comes first on either
-    if (effect in VOCABULARY and VOCABULARY[effect].also_on and first != effect
-            and any(laws[law][:1] == [effect] for law in VOCABULARY[effect].also_on)):
-        first = effect
+    first = first_named(effect, laws)
     # effects the report says the runs cannot tell apart from a named one (its ambiguity set,
     # said in the verdict's text too): naming one names the set
     sets = rep["verdict"].get("ambiguity_sets") or {}
@@ -299,6 +310,7 @@ def run_cell(variant: Variant, seed: int, effect: str | None, form: str | None,
             "laws": laws, "named_first": first,
             "first_alike": alike.get(first, []) if first else [],
             "extra": extra, "extra_unstated": [e for e in extra if e in unstated],
+            "unstated": sorted(unstated),
             "shrinkages": _law_shrinkages(rep), "seconds": seconds,
             "coverage_short": short_coverage(rep["verdict"].get("held_out_coverage") or {})}
 
@@ -394,6 +406,11 @@ def score(cells: list[dict]) -> dict[str, Any]:
         out["top1"][str(enr)] = float(np.mean([_hit(c) for c in cs]))
     ge1 = [c for c in single if c["enr"] >= 1.0]
     out["top1_enr_ge_1"] = float(np.mean([_hit(c) for c in ge1])) if ge1 else None
+    # the same, passing over an effect the rig carries unstated (UNSTATED_VOCABULARY) when it
+    # is named before the withheld one: naming it first is not wrong, it is there
+    hit_u = [_hit(c) or first_named(c["effect"], c["laws"], frozenset(c.get("unstated", ())))
+             == c["effect"] for c in ge1]
+    out["top1_enr_ge_1_beyond_unstated"] = float(np.mean(hit_u)) if hit_u else None
     out["top1_through_ambiguity_set"] = int(sum(_hit(c) and c["named_first"] != c["effect"]
                                                 for c in single))
     fam: dict[str, dict[str, list]] = {}
@@ -493,6 +510,11 @@ def format_side_by_side(own: dict | None, ind: dict) -> str:
                      f"an effect named that was not withheld {_fmt(s['extra_effect_named_beyond_unstated']).strip()}"
                      f", nothing withheld -> none or only that effect, explained "
                      f"{_fmt(s['none_or_only_unstated']).strip()})")
+    if (s.get("top1_enr_ge_1_beyond_unstated") is not None
+            and s["top1_enr_ge_1_beyond_unstated"] != s["top1_enr_ge_1"]):
+        lines.append(f"(passing over an effect a rig carries unstated when it is named before the "
+                     f"withheld one: top-1 at ENR >= 1 "
+                     f"{_fmt(s['top1_enr_ge_1_beyond_unstated']).strip()})")
     if s.get("errors"):
         lines.append(f"({s['errors']} campaigns raised an error in the diagnosis: scored as "
                      "failures, listed below)")

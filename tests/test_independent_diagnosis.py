@@ -229,6 +229,48 @@ def test_an_effect_the_rig_carries_unstated_is_scored_both_ways():
                "first_seed": 1, "seconds": 1.0})
 
 
+def test_top1_passing_over_an_effect_the_rig_carries_unstated_is_reported_beside():
+    """Rig Q's load cell lags its torque reading by ~5 ms it does not state: `time_delay`
+    named before a withheld Stribeck curve is right about the rig, a miss to the strict
+    top-1. The score adds the top-1 that passes over such a name (never over a name the rig
+    does not carry, never on the other law), and the table prints it beside the strict one."""
+    from commands.independent_harness import first_named, format_side_by_side, score
+    laws = {"output": ["time_delay", "stribeck"], "transmission": ["backlash"]}
+    assert first_named("stribeck", laws) == "time_delay"
+    assert first_named("stribeck", laws, frozenset({"time_delay"})) == "stribeck"
+    assert first_named("stribeck", laws, frozenset({"torque_offset"})) == "time_delay"
+    assert first_named("time_delay", laws, frozenset({"time_delay"})) == "time_delay"
+    assert first_named("hysteresis", laws, frozenset({"backlash"})) is None
+    assert first_named(None, laws) is None
+    # gear ripple counts on either law, after the passing over
+    assert first_named("gear_ripple", {"output": ["torque_offset", "gear_ripple"],
+                                       "transmission": []},
+                       frozenset({"torque_offset"})) == "gear_ripple"
+    cells = [_cell("single", "stribeck", "gauss", 1.0, "partly_explained",
+                   ["time_delay", "stribeck"], "time_delay", ["time_delay"]),
+             _cell("single", "stribeck", "lorentz", 1.0, "partly_explained",
+                   ["asymmetric_friction", "stribeck"], "asymmetric_friction",
+                   ["asymmetric_friction"]),
+             _cell("single", "backlash", "sharp", 1.0, "explained", ["backlash"], "backlash")]
+    cells[0]["laws"] = {"output": ["time_delay", "stribeck"], "transmission": []}
+    cells[1]["laws"] = {"output": ["asymmetric_friction", "stribeck"], "transmission": []}
+    cells[2]["laws"] = {"output": [], "transmission": ["backlash"]}
+    for c in cells:
+        c["unstated"] = ["time_delay"]
+    s = score(cells)
+    assert s["top1_enr_ge_1"] == pytest.approx(1 / 3)
+    assert s["top1_enr_ge_1_beyond_unstated"] == pytest.approx(2 / 3)
+    text = format_side_by_side(None, {"scores": s, "cells": cells, "variants": ["v"],
+                                      "seeds": 1, "first_seed": 1, "seconds": 1.0})
+    assert "withheld one: top-1 at ENR >= 1 0.667" in text
+    for c in cells:
+        c["unstated"] = []
+    assert score(cells)["top1_enr_ge_1_beyond_unstated"] == pytest.approx(1 / 3)
+    assert "withheld one: top-1" not in format_side_by_side(
+        None, {"scores": score(cells), "cells": cells, "variants": ["v"], "seeds": 1,
+               "first_seed": 1, "seconds": 1.0})
+
+
 def test_a_campaign_the_diagnosis_fails_on_is_scored_as_a_failure(monkeypatch):
     """One campaign that raises must not end the score (rig G's blind score lost its first
     30 cells that way): it is an `error` cell, a miss in every figure it enters, listed with
