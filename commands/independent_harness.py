@@ -154,6 +154,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig Q 30 Hz, 0.01° encoder, 4+2 runs", "rig_q",
             {"sample_rate_hz": 30.0, "encoder_res_deg": 0.01, "torque_noise": 250.0},
             few_runs=True),
+    Variant("rig R 320 Hz, 0.004° encoder, 3 ms torque lag", "rig_r",
+            {"sample_rate_hz": 320.0, "encoder_res_deg": 0.004, "torque_noise": 200.0,
+             "torque_lag_s": 0.003}),
+    Variant("rig R 15 Hz, 0.008° encoder, 4+2 runs", "rig_r",
+            {"sample_rate_hz": 15.0, "encoder_res_deg": 0.008, "torque_noise": 260.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
