@@ -271,6 +271,38 @@ def test_top1_passing_over_an_effect_the_rig_carries_unstated_is_reported_beside
                "first_seed": 1, "seconds": 1.0})
 
 
+def test_campaigns_whose_effect_the_rig_could_not_make_are_scored_again_without_them():
+    """Rig R's position-dependent stiffness reaches ENR 0.03 at its largest scale, and its
+    encoder's drift moves T − τ_L not at all (ENR 0): `none` is right on such a campaign and the
+    strict out-of-vocabulary figure counts it a miss. The score keeps the strict figures and adds
+    them without the campaigns made below half the ENR asked for, printed only when any is."""
+    from commands.independent_harness import format_side_by_side, score
+    cells = [_cell("none", None, None, 0.0, "none", [], None, shr=()),
+             _cell("single", "backlash", "sharp", 1.0, "explained", ["backlash"], "backlash"),
+             _cell("single", "stribeck", "exp", 1.0, "none", [], None, shr=()),
+             _cell("single", "stribeck", "exp", 0.5, "none", [], None, shr=()),
+             _cell("oov", "position_stiffness", "cosine", 2.0, "none", [], None, shr=()),
+             _cell("oov", "periodic_disturbance", "sine", 2.0, "unexplained", [], None, shr=())]
+    cells[2]["enr_realised"] = 0.3      # clamped: made 0.3 of the 1.0 asked
+    cells[3]["enr_realised"] = 0.26     # made more than half the 0.5 asked: kept
+    cells[4]["enr_realised"] = 0.03
+    s = score(cells)
+    assert s["top1_enr_ge_1"] == 0.5 and s["oov_not_explained"] == 0.5
+    assert s["as_made"] == {"campaigns_left_out": 2, "top1_enr_0.5": 0.0, "top1_enr_ge_1": 1.0,
+                            "oov_not_explained": 1.0}
+    text = format_side_by_side(None, {"scores": s, "cells": cells, "variants": ["v"],
+                                      "seeds": 1, "first_seed": 1, "seconds": 1.0})
+    assert ("(without the 2 campaigns whose effect the rig made below 0.5 of the ENR asked for: "
+            "top-1 at ENR 0.5 0.000, at ENR >= 1 1.000, out of vocabulary -> unexplained/partly "
+            "1.000)") in text
+    for c in cells:
+        c["enr_realised"] = c["enr"]
+    assert "as_made" not in score(cells)
+    assert "campaigns whose effect the rig made below" not in format_side_by_side(
+        None, {"scores": score(cells), "cells": cells, "variants": ["v"], "seeds": 1,
+               "first_seed": 1, "seconds": 1.0})
+
+
 def test_a_campaign_the_diagnosis_fails_on_is_scored_as_a_failure(monkeypatch):
     """One campaign that raises must not end the score (rig G's blind score lost its first
     30 cells that way): it is an `error` cell, a miss in every figure it enters, listed with
