@@ -23,7 +23,10 @@ transmission effects, between the same-seed runs with and without it — divided
 that law (√(σ_T² + σ_L²), resp. √(σ_T² + (k·step_q)²/12)) is the requested value. An effect the
 vocabulary places on two laws (gear ripple: a torque on the output, or an angle error inside
 the transmission) is measured on the law where it shows more, the larger of the two ratios: it
-counts as named when it comes first on either law.
+counts as named when it comes first on either law. So is an effect outside the vocabulary (a
+position-dependent stiffness shows in the twist), and a reading's effect that leaves the machine
+untouched but moves the angle readings (an encoder's lag or drift) is measured on the twist the
+readings give.
 """
 
 from __future__ import annotations
@@ -213,6 +216,11 @@ def _stiffness(raw: list) -> float:
     return float(tw @ tq / (tw @ tw)) if tw @ tw > 0 else 0.0
 
 
+def _read_twist(r: Any) -> np.ndarray:
+    """The twist the run's readings give [rad]: motor angle over N minus the output angle."""
+    return r.samples["u"].to_numpy() - r.samples["q"].to_numpy()
+
+
 def contribution_enr(variant: Variant, seed: int, effect: str, form: str,
                      base_raw: list | None = None) -> float:
     """ENR of `effect` in `form` at scale 1 on the campaign of `seed` (module docstring)."""
@@ -226,13 +234,18 @@ def contribution_enr(variant: Variant, seed: int, effect: str, form: str,
         d = d[np.isfinite(d)]
         return float(np.sqrt(np.mean(d ** 2)) / noise) if d.size else 0.0
 
+    # an effect outside the vocabulary may act on either law; a reading's effect (acts_on
+    # 'sensor') may be a lag or drift of the angle readings, which only the twist law sees
     laws = ((VOCABULARY[effect].acts_on, *VOCABULARY[effect].also_on)
-            if effect in VOCABULARY else ("output",))
+            if effect in VOCABULARY else ("output", "transmission"))
     out = []
-    if "transmission" in laws:
+    if "transmission" in laws or "sensor" in laws:
         k = _stiffness(base_raw)
         d = np.concatenate([k * (w.truth["twist"].to_numpy() - b.truth["twist"].to_numpy())
                             for w, b in zip(with_raw, base_raw)])
+        if not np.any(d):   # the machine is untouched: what moved, if anything, is a reading
+            d = np.concatenate([k * (_read_twist(w) - _read_twist(b))
+                                for w, b in zip(with_raw, base_raw)])
         step = float(spec["q"].get("resolution", 0.0))
         out.append(ratio(d, np.sqrt(sig_t ** 2 + (k * step) ** 2 / 12.0)))
     if laws != ("transmission",):

@@ -411,6 +411,36 @@ def test_a_two_law_effect_is_scaled_on_the_law_where_it_shows():
 
 
 @pytest.mark.slow
+def test_an_angle_readings_effect_and_an_out_of_vocabulary_one_are_scaled_where_they_show():
+    """Rig R's encoder lag leaves T − τ_L and the machine untouched: the blind score ran it at
+    the rig's largest scale (ENR 0 asked to be 1). It is measured on the twist the readings
+    give. A position-dependent stiffness (outside the vocabulary) is measured on both laws,
+    the larger ratio: it was measured on T − τ_L alone and reached ENR 0.03 there."""
+    import numpy as np
+    from commands.independent_harness import _stiffness, contribution_enr, simulate_campaign
+    v = next(v for v in VARIANTS if v.rig == "rig_r" and v.few_runs)
+    base = simulate_campaign(v, 5)[2]
+    spec = base[0].meta["sensors"]
+    k = _stiffness(base)
+    noise_twist = np.sqrt(spec["torque"]["noise_sd"] ** 2
+                          + (k * spec["q"]["resolution"]) ** 2 / 12)
+    lag = simulate_campaign(v, 5, {"time_delay": {"form": "encoder", "scale": 1.0}})[2]
+    assert all(np.array_equal(w.truth["twist"], b.truth["twist"]) for w, b in zip(lag, base))
+    read = np.concatenate([k * ((w.samples["u"] - w.samples["q"])
+                                - (b.samples["u"] - b.samples["q"])).to_numpy()
+                           for w, b in zip(lag, base)])
+    enr = contribution_enr(v, 5, "time_delay", "encoder", base)
+    assert enr > 0.1
+    assert enr == pytest.approx(np.sqrt(np.mean(read ** 2)) / noise_twist, rel=1e-9)
+    stiff = simulate_campaign(v, 5, {"position_stiffness": {"form": "cosine", "scale": 1.0}})[2]
+    tw = np.concatenate([k * (w.truth["twist"] - b.truth["twist"]).to_numpy()
+                         for w, b in zip(stiff, base)])
+    on_twist = np.sqrt(np.mean(tw ** 2)) / noise_twist
+    enr = contribution_enr(v, 5, "position_stiffness", "cosine", base)
+    assert enr >= on_twist * (1 - 1e-9)
+
+
+@pytest.mark.slow
 def test_rig_i_500_hz_nominal_output_balance_names_nothing():
     """Rig I at 500 Hz, nothing withheld. Three things the balance could not read as they
     were: its stiffening drive train rings at 5.6–7.6 Hz (the soft centre's stiffness to the
