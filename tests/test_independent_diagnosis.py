@@ -180,14 +180,15 @@ def test_independent_scores_and_the_side_by_side_table():
 
 
 def test_a_scale_the_rig_cannot_make_is_clamped_and_said():
-    """Rig N refuses scales above 10, and its linear position-dependent stiffness needs a
-    scale near 300 for ENR 2 at 12 Hz: the blind score lost such campaigns as `error`. The
-    campaign now runs at the rig's largest scale, says so, and reports the ENR it realised."""
+    """Rig N refuses scales above 10: its blind score lost campaigns that asked for more as
+    `error`. The campaign now runs at the rig's largest scale, says so, and reports the ENR it
+    realised. Rig R's 11 Hz load-side resonance needs a scale near 7.4 for ENR 2 at 15 Hz, and
+    rig R stops at 5."""
     from commands.independent_harness import largest_scale
     assert largest_scale("rig_n") == 10.0 and largest_scale("rig_m") == 3.0
-    assert largest_scale("two_inertia") is None
-    v = next(v for v in VARIANTS if v.rig == "rig_n" and v.few_runs)
-    c = run_cell(v, 5, "position_dependent_stiffness", "linear", 2.0, "oov")
+    assert largest_scale("rig_r") == 5.0 and largest_scale("two_inertia") is None
+    v = next(v for v in VARIANTS if v.rig == "rig_r" and v.few_runs)
+    c = run_cell(v, 5, "second_resonance", "load_side_11hz", 2.0, "oov")
     assert c["status"] != "error" and c["scale_clamped"] is True
     assert 0.0 < c["enr_realised"] < 2.0
 
