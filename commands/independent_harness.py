@@ -163,6 +163,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig R 15 Hz, 0.008° encoder, 4+2 runs", "rig_r",
             {"sample_rate_hz": 15.0, "encoder_res_deg": 0.008, "torque_noise": 260.0},
             few_runs=True),
+    Variant("rig S 500 Hz, 0.002° encoder, 2 ms torque lag", "rig_s",
+            {"sample_rate_hz": 500.0, "encoder_res_deg": 0.002, "torque_noise": 180.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig S 10 Hz, 0.02° encoder, 4+2 runs", "rig_s",
+            {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 300.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
