@@ -471,16 +471,11 @@ def score(cells: list[dict]) -> dict[str, Any]:
     made = [c for c in cells if c["kind"] == "none"
             or c.get("enr_realised", c["enr"]) >= REALISED_SHARE * c["enr"]]
     if len(made) < len(cells):
-        sm = [c for c in made if c["kind"] == "single"]
-        om = [c for c in made if c["kind"] == "oov"]
-        g1 = [c for c in sm if c["enr"] >= 1.0]
-        half = [c for c in sm if c["enr"] == 0.5]
-        out["as_made"] = {
-            "campaigns_left_out": len(cells) - len(made),
-            "top1_enr_0.5": float(np.mean([_hit(c) for c in half])) if half else None,
-            "top1_enr_ge_1": float(np.mean([_hit(c) for c in g1])) if g1 else None,
-            "oov_not_explained": (float(np.mean([c["status"] in NOT_EXPLAINED for c in om]))
-                                  if om else None)}
+        sub = score(made)   # every campaign of `made` is made: no deeper `as_made`
+        out["as_made"] = {"campaigns_left_out": len(cells) - len(made),
+                          "top1_enr_0.5": sub["top1"].get("0.5"),
+                          "top1_enr_ge_1": sub["top1_enr_ge_1"],
+                          "oov_not_explained": sub["oov_not_explained"]}
     out["errors"] = int(sum(c["status"] == "error" for c in cells))
     out["scale_clamped"] = int(sum(bool(c.get("scale_clamped")) for c in cells))
     # how specific the held-out coverage note is: on the misses, and on the hits beside them
