@@ -169,6 +169,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig S 10 Hz, 0.02° encoder, 4+2 runs", "rig_s",
             {"sample_rate_hz": 10.0, "encoder_res_deg": 0.02, "torque_noise": 300.0},
             few_runs=True),
+    Variant("rig T 700 Hz, 0.003° encoder, 3 ms torque lag", "rig_t",
+            {"sample_rate_hz": 700.0, "encoder_res_deg": 0.003, "torque_noise": 200.0,
+             "torque_lag_s": 0.003}),
+    Variant("rig T 24 Hz, 0.015° encoder, 4+2 runs", "rig_t",
+            {"sample_rate_hz": 24.0, "encoder_res_deg": 0.015, "torque_noise": 300.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
