@@ -64,7 +64,8 @@ class Effect:
     params: tuple[EffectParam, ...]
     also_on: tuple[str, ...] = ()
     """Other laws a diagnosis tries the effect on (a gear's ripple is a torque on the output,
-    from the mesh's friction, or an angle error inside the twist, the transmission error)."""
+    from the mesh's friction, or an angle error inside the twist, the transmission error; a
+    lagging angle reading is a twist error that grows with the speed)."""
 
     def defaults(self) -> dict[str, float]:
         return {p.name: p.default for p in self.params}
@@ -132,7 +133,8 @@ VOCABULARY: dict[str, Effect] = {e.name: e for e in (
             EffectParam("drift", 2.0, "N·m/s", "drift rate of the offset", -1e3, 1e3))),
     Effect("time_delay", "a channel lagging the others",
            "fast changes, reversals", "sensor", "delay",
-           (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel", 0.0, 2.0),)),
+           (EffectParam("delay", 0.05, "s", "lag of the strain-gauge torque channel", 0.0, 2.0),),
+           also_on=("transmission",)),
     Effect("asymmetric_friction", "Coulomb level and viscous slope that differ with the direction "
            "of motion", "positive vs negative speeds; the EMPS drive's known gap", "output", "d_v",
            (EffectParam("d_v", 8000.0, "N·m·s/rad",

@@ -14,7 +14,7 @@ from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import (angle_lines, angle_periodogram, blocks_improved_z,
                                        mean_se)
 from estimator.least_squares import OLSResult, leave_one_group_out, ols
-from estimator.models import LinearModel, physical_objection
+from estimator.models import V_EPS, LinearModel, Term, physical_objection
 
 
 def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray,
@@ -76,6 +76,11 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # the linear law, and curved (exponential) ones: a lubricant's viscosity is not linear
         # in the temperature over a 15–60 °C campaign
         return [{}] + [{"curvature": float(k)} for k in opt.temperature_curvatures]
+    if name == "time_delay" and kind == "transmission":
+        # an angle reading's lag: an encoder whose position arrives later than the other's
+        # reads the twist off in proportion to the speed (the torque reading's lag is found on
+        # the output law and carried here)
+        return [{"angle": 1.0}]
     if name == "load_dependent_friction" and kind == "output":
         # a gear's: one law for both power-flow directions, or one coefficient per direction
         # (driving or back-driven; on a system without a gear the split column is only an
@@ -230,7 +235,45 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
         if objection is not None or physical_objection(m2, r.theta) is None:
             shape, m = s2, m2
     f = _fit(m, shape, tr, te)
-    return replace(f, objection=physical_objection(f.model, f.theta, f.se))
+    return replace(f, objection=(physical_objection(f.model, f.theta, f.se)
+                                 or angle_lag_objection(f.model, f.theta, tr)))
+
+
+def angle_lag_objection(model: LinearModel, theta: np.ndarray, tr: dict) -> str | None:
+    """Why an angle reading's lag fitted on a twist–torque law (time_delay, shape angle: the
+    column −q̇, coefficient k_lag = k·d) is not one, or None. A lag d reads the twist off by
+    d·q̇, in proportion to the speed. Two things draw a column like it and are not a lag:
+    - an error smaller than the encoders resolve: a twist error whose RMS, |k_lag|·rms(q̇)/k
+      (k the training runs' least-squares stiffness), is under the rounding error of the
+      twist's stated step s, s/√12 (the runs' `twist_step`), cannot be told from the rounding,
+      which is no white noise on a slow joint (it holds while the encoder sits on a step);
+    - a twist offset that follows only the direction of motion (the side of a dead zone that
+      the motion drags a gear to, a friction between the two encoders): in each constant-speed
+      run it is the same column; the runs tell the two apart where the speed differs between
+      or within them, so the lag is objected to when the direction's column, sgn q̇, predicts
+      the training runs each from the others (leave-one-run-out) at least as well."""
+    if not model.effects or model.effects[-1] != "time_delay" or model.terms[-1].names != ("k_lag",):
+        return None
+    tw, tq, qd = (np.asarray(tr[c], dtype=float) for c in ("torsion", "torque", "qd"))
+    tw, tq = tw - tw.mean(), tq - tq.mean()
+    k = abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
+    step = float(np.max(tr["twist_step"])) if "twist_step" in tr and tr["twist_step"].size else 0.0
+    if k > 0 and step > 0:
+        error = abs(float(theta[-1])) * float(np.sqrt(np.mean(qd ** 2))) / k
+        if error < step / np.sqrt(12.0):
+            return (f"the twist error it reads, {error:.2g} rad RMS, is under the rounding of the "
+                    f"twist's stated step ({step / np.sqrt(12.0):.2g} rad RMS)")
+    if np.unique(tr["run"]).size < 2:
+        return None
+    side = Term("direction of motion", ("c_dir",), ("N·m",),
+                lambda s: np.tanh(s["qd"] / V_EPS), ("qd",))
+    alt = replace(model, terms=model.terms[:-1] + (side,))
+    e_lag = leave_one_group_out(model.design(tr), model.target(tr), tr["run"])
+    e_dir = leave_one_group_out(alt.design(tr), alt.target(tr), tr["run"])
+    if float(e_dir @ e_dir) <= float(e_lag @ e_lag):
+        return ("the twist's error follows the direction of motion, not the speed: a column "
+                "sgn q̇ predicts the training runs as well as a lag's q̇")
+    return None
 
 
 def _refined_bouc_wen(shape: dict, m: LinearModel, tr: dict) -> tuple[dict, LinearModel]:

@@ -72,6 +72,24 @@ def refuse_diverged(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                     f"a measurement of the rig; leave the run out or repair it")
 
 
+def stated_resolution(run: RunData, channel: str) -> float:
+    """The step [rad, or the channel's unit] the run's sensor sheet states for `channel`
+    (`sensors[channel].resolution`, docs/run-format.md); 0 when it states none."""
+    s = run.meta.get("sensors") if isinstance(run.meta, dict) else None
+    return float(((s or {}).get(channel) or {}).get("resolution", 0.0) or 0.0)
+
+
+def twist_step(run: RunData) -> float:
+    """The step [rad] with which one run measures the twist: its `torsion` channel's stated
+    step when it records the twist itself and states one (the law reads that channel), else
+    the sum of the output and motor encoders' stated steps; 0 when it states neither."""
+    if "torsion" in run.samples.columns and stated_resolution(run, "torsion") > 0:
+        return stated_resolution(run, "torsion")
+    if stated_resolution(run, "q") <= 0:
+        return 0.0
+    return stated_resolution(run, "q") + stated_resolution(run, "u")
+
+
 def _available(run: RunData, prep: PrepOptions) -> list[str]:
     ok = []
     for s in OPTIONAL_SIGNALS:
@@ -105,6 +123,8 @@ def _pool(runs: Sequence[RunData], need: Sequence[str], prep: PrepOptions, run0:
         # on which a motor-side ripple is periodic (0: the run does not say)
         d["reduction"] = np.full(s.n, float(run.meta.get("reduction") or 0.0))
         d["has_load"] = np.full(s.n, bool(s.info.get("has_torque_load")))
+        # the step with which the run measures the twist (0: it does not say)
+        d["twist_step"] = np.full(s.n, twist_step(run))
         parts.append(d)
     keys = set(parts[0])
     for p in parts[1:]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from core.run import RunData
 from estimator.diagnosis_candidates import _fit, _rmse
-from estimator.diagnosis_data import _pool, _slice
+from estimator.diagnosis_data import _pool, _slice, stated_resolution
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import band_excess, block_ids, block_size, mean_se, spectral_line
 from estimator.models import LinearModel
@@ -71,13 +71,6 @@ def transient_mask(sig: dict, window_s: float, angle_step: float = 0.0) -> np.nd
             hi = np.searchsorted(ts, t + window_s, side="right")
             out[idx] |= hi > lo
     return out
-
-
-def stated_resolution(run: RunData, channel: str) -> float:
-    """The step [rad, or the channel's unit] the run's sensor sheet states for `channel`
-    (`sensors[channel].resolution`, docs/run-format.md); 0 when it states none."""
-    s = run.meta.get("sensors") if isinstance(run.meta, dict) else None
-    return float(((s or {}).get(channel) or {}).get("resolution", 0.0) or 0.0)
 
 
 def output_encoder_step(runs: Sequence[RunData]) -> float:

@@ -9,9 +9,8 @@ from typing import Sequence
 import numpy as np
 
 from core.run import RunData
-from estimator.diagnosis_candidates import bouc_wen_grid
-from estimator.diagnosis_data import _pool, base_model
-from estimator.diagnosis_inputs import stated_resolution
+from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid
+from estimator.diagnosis_data import _pool, base_model, stated_resolution, twist_step
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, knee_column, with_stiffening
@@ -83,21 +82,10 @@ fine enough (4 % apart over the backlash grid's range) that a dead zone's own ha
 among them."""
 
 
-def _twist_step(run: RunData) -> float:
-    """The step [rad] with which one run measures the twist: its `torsion` channel's stated
-    step when it records the twist itself and states one (the law reads that channel), else
-    the sum of the output and motor encoders' stated steps; 0 when it states neither."""
-    if "torsion" in run.samples.columns and stated_resolution(run, "torsion") > 0:
-        return stated_resolution(run, "torsion")
-    if stated_resolution(run, "q") <= 0:
-        return 0.0
-    return stated_resolution(run, "q") + stated_resolution(run, "u")
-
-
 def twist_resolution(runs: Sequence[RunData]) -> float | None:
-    """The coarsest step [rad] with which the runs measure the twist u − q (`_twist_step`),
+    """The coarsest step [rad] with which the runs measure the twist u − q (`twist_step`),
     the largest over the runs; None when a run states none."""
-    steps = [_twist_step(r) for r in runs]
+    steps = [twist_step(r) for r in runs]
     return max(steps) if steps and min(steps) > 0 else None
 
 
@@ -202,19 +190,32 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     clipped to ± k·resolution (k: the least-squares slope of the torque on the twist), is taken
     off its torque. Bounded by the step, it cannot take away more than a zero error can be;
     a dead zone under a load that keeps one sign is a constant too, and within a step the two
-    are the same thing to these runs. A recorded twist (`torsion`) is zeroed the same way
-    within the step its channel states, and not at all when it states none."""
+    are the same thing to these runs. A lagging angle reading is not: it reads the twist off by
+    d·q̇, a constant in each constant-speed run that follows the speed from run to run, so the
+    law replayed carries the angle lag's column (time_delay, shape angle) when the runs carry
+    q̇ and the candidate would take the lag (estimator.diagnosis_candidates.
+    angle_lag_objection) — otherwise the zeros take up to a step of it in every run and leave
+    the lag's column a remainder that no longer follows the speed. A recorded twist
+    (`torsion`) is zeroed the same way within the step its channel states, and not at all when
+    it states none."""
     runs = list(train_runs) + list(test_runs)
     # a recorded twist whose own step is not stated: its zero is not known to be an encoder's
     unstated = any("torsion" in r.samples.columns and stated_resolution(r, "torsion") <= 0
                    for r in runs)
     if not resolution or resolution <= 0 or unstated:
         return list(train_runs), list(test_runs), None
-    need = list(dict.fromkeys(("t",) + TRANSMISSION_SIGNALS + tuple(model.requires)))
     n = len(train_runs)
-    try:
-        pooled = _pool(runs, need, prep, 0)
-    except (KeyError, ValueError):       # the law's own pooling says why, with the run's name
+    lagged = (model.with_effect("time_delay", angle=1.0) if "time_delay" not in model.effects
+              else None)
+    pooled = None
+    for m in ((lagged, model) if lagged is not None else (model,)):
+        need = list(dict.fromkeys(("t",) + TRANSMISSION_SIGNALS + tuple(m.requires)))
+        try:
+            pooled = _pool(runs, need, prep, 0)
+            break
+        except (KeyError, ValueError):   # the law's own pooling says why, with the run's name
+            continue
+    if pooled is None:
         return list(train_runs), list(test_runs), None
     tr = {k: v[pooled["run"] < n] for k, v in pooled.items()}
     tw, tq = np.asarray(tr["torsion"], dtype=float), np.asarray(tr["torque"], dtype=float)
@@ -222,9 +223,16 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     k = abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
     if not k > 0:
         return list(train_runs), list(test_runs), None
-    theta = ols(model.design(tr), model.target(tr)).theta
+    replay = model
+    if lagged is not None and "qd" in tr:
+        theta = ols(lagged.design(tr), lagged.target(tr)).theta
+        # a lag the candidate would be refused (under the rounding, or only the direction's):
+        # the zeros take what a zero can
+        if angle_lag_objection(lagged, theta, tr) is None:
+            replay = lagged
+    theta = ols(replay.design(tr), replay.target(tr)).theta
     bound = k * resolution
-    e = model.target(pooled) - model.design(pooled) @ theta
+    e = replay.target(pooled) - replay.design(pooled) @ theta
     ok = np.isfinite(e)
     count = np.bincount(pooled["run"][ok], minlength=len(runs))
     total = np.bincount(pooled["run"][ok], weights=e[ok], minlength=len(runs))

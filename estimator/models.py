@@ -370,7 +370,11 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                               shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading;
                               shape thermal=1 adds c_temp · (temp − 25 °C), a strain-gauge zero
                               that follows the joint's temperature)
-    time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor)
+    time_delay                delay · (−dT/dt): T(t − d) ≈ T(t) − d·Ṫ(t), linear in d (sensor);
+                              shape angle=1 (transmission laws): k_lag · (−q̇), an angle reading
+                              that lags the other by d reads the twist off by d·q̇, so
+                              T = k·(Δ_read − d·q̇) and k_lag = k·d (+ the output encoder's lag,
+                              − the motor encoder's)
     hysteresis                k_h · x, x the Bouc–Wen state of the twist for shape (alpha, beta,
                               gamma, n) (transmission models without an x column, e.g. eq5)
     backlash                  k_bl · (backlash_twist(Δ, b) − Δ): k·bt(Δ) = k·Δ + k·(bt(Δ) − Δ),
@@ -394,11 +398,15 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     settling = float(shape.get("settling", 0.0)) if name == "torque_offset" else 0.0
     # and its `thermal`: a zero that follows the joint's temperature (a strain gauge's zero drift)
     thermal = bool(shape.get("thermal", 0.0)) if name == "torque_offset" else False
+    # time_delay's `angle`: the lag is an angle reading's, seen by a twist–torque law as a twist
+    # error proportional to the speed
+    angle = bool(shape.get("angle", 0.0)) if name == "time_delay" else False
     shape = {k: v for k, v in shape.items()
              if not ((name == "gear_ripple" and k in ("motor", "harmonics"))
                      or (name == "load_dependent_friction" and k == "power_flow")
                      or (name == "temperature_friction" and k == "curvature")
-                     or (name == "torque_offset" and k in ("settling", "thermal")))}
+                     or (name == "torque_offset" and k in ("settling", "thermal"))
+                     or (name == "time_delay" and k == "angle"))}
     bw_keys = {"alpha", "beta", "gamma", "n"}
     if name == "hysteresis":
         bad = set(shape) - bw_keys
@@ -488,6 +496,11 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                 cols.append(-np.expm1(-s["t"] / settling))
             return np.column_stack(cols)
         return Term(name, tuple(names), tuple(units), offset_columns, tuple(inputs))
+    if name == "time_delay" and angle:
+        if model.kind != "transmission":
+            raise ValueError("time_delay's angle shape is a twist error; it applies to a "
+                             "transmission (twist–torque) law")
+        return Term(name, ("k_lag",), ("N·m·s/rad",), lambda s: -s["qd"], ("qd",))
     if name == "time_delay":
         return Term(name, ("delay",), ("s",), lambda s: -s["torque_rate"], ("torque_rate",))
     if name == "hysteresis":
