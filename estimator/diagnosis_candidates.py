@@ -239,6 +239,15 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
                                  or angle_lag_objection(f.model, f.theta, tr)))
 
 
+def ls_stiffness(sig: dict) -> float:
+    """|least-squares slope| [N·m/rad] of the torque on the twist, both centred, on the
+    signals `sig` (torsion, torque); 0 when the twist does not move."""
+    tw = np.asarray(sig["torsion"], dtype=float)
+    tq = np.asarray(sig["torque"], dtype=float)
+    tw, tq = tw - tw.mean(), tq - tq.mean()
+    return abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
+
+
 def angle_lag_objection(model: LinearModel, theta: np.ndarray, tr: dict) -> str | None:
     """Why an angle reading's lag fitted on a twist–torque law (time_delay, shape angle: the
     column −q̇, coefficient k_lag = k·d) is not one, or None. A lag d reads the twist off by
@@ -254,9 +263,8 @@ def angle_lag_objection(model: LinearModel, theta: np.ndarray, tr: dict) -> str 
       the training runs each from the others (leave-one-run-out) at least as well."""
     if not model.effects or model.effects[-1] != "time_delay" or model.terms[-1].names != ("k_lag",):
         return None
-    tw, tq, qd = (np.asarray(tr[c], dtype=float) for c in ("torsion", "torque", "qd"))
-    tw, tq = tw - tw.mean(), tq - tq.mean()
-    k = abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
+    qd = np.asarray(tr["qd"], dtype=float)
+    k = ls_stiffness(tr)
     step = float(np.max(tr["twist_step"])) if "twist_step" in tr and tr["twist_step"].size else 0.0
     if k > 0 and step > 0:
         error = abs(float(theta[-1])) * float(np.sqrt(np.mean(qd ** 2))) / k

@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from core.run import RunData
-from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid
+from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid, ls_stiffness
 from estimator.diagnosis_data import _pool, base_model, stated_resolution, twist_step
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.least_squares import ols
@@ -218,9 +218,7 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     if pooled is None:
         return list(train_runs), list(test_runs), None
     tr = {k: v[pooled["run"] < n] for k, v in pooled.items()}
-    tw, tq = np.asarray(tr["torsion"], dtype=float), np.asarray(tr["torque"], dtype=float)
-    tw, tq = tw - tw.mean(), tq - tq.mean()
-    k = abs(float(tw @ tq / (tw @ tw))) if tw @ tw > 0 else 0.0
+    k = ls_stiffness(tr)
     if not k > 0:
         return list(train_runs), list(test_runs), None
     replay = model
