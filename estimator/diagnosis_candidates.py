@@ -261,11 +261,13 @@ def angle_lag_objection(model: LinearModel, theta: np.ndarray, tr: dict) -> str 
       run it is the same column; the runs tell the two apart where the speed differs between
       or within them, so the lag is objected to when the direction's column, sgn q̇, predicts
       the training runs each from the others (leave-one-run-out) at least as well."""
-    if not model.effects or model.effects[-1] != "time_delay" or model.terms[-1].names != ("k_lag",):
+    if (not model.effects or model.effects[-1] != "time_delay"
+            or model.terms[-1].names != ("k_lag",)):
         return None
     qd = np.asarray(tr["qd"], dtype=float)
     k = ls_stiffness(tr)
-    step = float(np.max(tr["twist_step"])) if "twist_step" in tr and tr["twist_step"].size else 0.0
+    steps = tr.get("twist_step")
+    step = float(np.max(steps)) if steps is not None and steps.size else 0.0
     if k > 0 and step > 0:
         error = abs(float(theta[-1])) * float(np.sqrt(np.mean(qd ** 2))) / k
         if error < step / np.sqrt(12.0):
