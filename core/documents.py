@@ -314,6 +314,10 @@ class DiagnosisVerdict(TypedDict, total=False):
     offset_channel: dict[str, Any]
     """Which torque reading a torque_offset found on the output law lies in
     (estimator.diagnosis_channel.offset_channel), when a twist–torque law was diagnosed."""
+    angle_lag: dict[str, Any]
+    """When the twist–torque law chose an angle reading's lag (time_delay, shape angle): which
+    reading is late (`reading`: 'q' or 'u') and by how much (`lag_s`, s), from k_lag and the
+    least-squares stiffness (estimator.diagnosis._note_angle_lag)."""
     outside_vocabulary: list[str]
     """Causes the runs place outside the vocabulary (an effect taken out of `effects` for it)."""
     held_out_coverage: dict[str, CoverageEntry]

@@ -74,7 +74,8 @@ import numpy as np
 
 from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
-                                            _score, predicted_shrinkage, run_consistency)
+                                            _score, ls_stiffness, predicted_shrinkage,
+                                            run_consistency)
 from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
 from estimator.diagnosis_coverage import held_out_coverage
 from estimator.diagnosis_data import (OPTIONAL_SIGNALS, _available, _pool, _slice, base_model,
@@ -602,6 +603,21 @@ def _note_narrow_dead_zone(verdict: dict, resolution: float | None,
                            "steps_needed": float(opt.soft_centre_min_steps)})
 
 
+def _note_angle_lag(verdict: dict, final: Fit | None, stiffness: float) -> bool:
+    """A chosen angle reading's lag (time_delay, shape angle) in seconds and which reading is
+    late, from its fitted k_lag = k·d and the training runs' least-squares `stiffness` k
+    [N·m/rad]: `verdict.angle_lag` = {reading: 'q' (the output angle is read after the motor
+    angle, k_lag > 0) or 'u', lag_s}. True when it was set."""
+    if (final is None or "k_lag" not in final.param_names
+            or (verdict.get("shapes") or {}).get("time_delay", {}).get("angle") != 1.0
+            or not stiffness > 0):
+        return False
+    k_lag = float(final.mean[final.param_names.index("k_lag")])
+    verdict["angle_lag"] = {"reading": "q" if k_lag > 0 else "u",
+                            "lag_s": abs(k_lag) / stiffness}
+    return True
+
+
 def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
                            spec: str | LinearModel = "auto", prep: PrepOptions | None = None,
                            options: DiagnosisOptions | None = None,
@@ -652,6 +668,8 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
                                                   twist_resolution(runs))
     d = diagnose_detailed(train_runs, test_runs, model, tprep, topt, transmission=None)
     _note_narrow_dead_zone(d.report["verdict"], twist_resolution(runs), opt)
+    if _note_angle_lag(d.report["verdict"], d.final, ls_stiffness(tr)):
+        d.report["verdict"]["summary"] = verdict_summary(d.report)
     d.report["baseline"]["shape"] = shape
     d.report["baseline"]["twist_zero"] = zero
     d.report["baseline"]["carried"] = list(carried)

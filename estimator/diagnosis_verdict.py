@@ -31,6 +31,8 @@ def merge_transmission(report: DiagnosisReport, tx: DiagnosisReport) -> None:
     v["effects"] = v["effects"] + [e for e in tv["effects"] if e not in v["effects"]]
     v["shapes"] = {**tv["shapes"], **v["shapes"]}
     v["ambiguity_sets"] = {**tv.get("ambiguity_sets", {}), **v.get("ambiguity_sets", {})}
+    if "angle_lag" in tv and v["effect_models"].get("time_delay") == law1:
+        v["angle_lag"] = tv["angle_lag"]
     v["status"] = combined_status([v["status"], tv["status"]])
 
 
@@ -98,6 +100,11 @@ def verdict_summary(report: DiagnosisReport) -> str:
             text += (f" (or a softer centre of the compliance curve: the dead zone's "
                      f"half-width, {centre['half_width_steps']:.1f} of the twist's stated steps, "
                      f"is under the {centre['steps_needed']:g} that tell the two apart)")
+        lag = v.get("angle_lag") if e == "time_delay" else None
+        if lag:
+            late, other = (("q, the output angle", "u, the motor angle") if lag["reading"] == "q"
+                           else ("u, the motor angle", "q, the output angle"))
+            text += f" (an angle reading: {late}, read {1e3 * lag['lag_s']:.2g} ms after {other})"
         gain = entry.get("gain_mismatch")
         if gain:
             text += (f" (or a gain mismatch of {100 * gain['relative_gain_error']:.3g} % between "

@@ -15,28 +15,29 @@ from estimator.diagnosis import diagnose
 from estimator.models import eq4, eq5
 
 
-def _late(run: RunData, lag_s: float) -> RunData:
-    """The run with q and q̇ read `lag_s` late, and without its recorded twist (the law then
+def _late(run: RunData, lag_s: float, channels: tuple[str, ...] = ("q", "qd")) -> RunData:
+    """The run with `channels` read `lag_s` late, and without its recorded twist (the law then
     reads the twist u − q from the two encoders, as on a rig without a twist channel)."""
     s = run.samples.drop(columns=["torsion"])
     t = s["t"].to_numpy()
-    for c in ("q", "qd"):
+    for c in channels:
         s[c] = np.interp(t - lag_s, t, s[c].to_numpy())
     return RunData(samples=s, meta=run.meta)
 
 
 @cache
-def _twist_law(lag_s: float) -> tuple[dict, float]:
-    """The twist–torque law's report on the emulator's campaign (seed 5) read with the lag, and
-    the least-squares stiffness of torque on twist [N·m/rad]."""
+def _diagnosed(lag_s: float, channels: tuple[str, ...] = ("q", "qd")) -> tuple[dict, float]:
+    """The report on the emulator's campaign (seed 5) with `channels` read `lag_s` late, and the
+    least-squares stiffness of torque on twist [N·m/rad]."""
     from commands.diagnosis_harness import simulate_campaign
     train, test = simulate_campaign(None, 5)
-    train, test = [_late(r, lag_s) for r in train], [_late(r, lag_s) for r in test]
+    train = [_late(r, lag_s, channels) for r in train]
+    test = [_late(r, lag_s, channels) for r in test]
     rep = diagnose(train, test, "eq4", transmission="auto")
     tw = np.concatenate([(r.samples["u"] - r.samples["q"]).to_numpy() for r in train])
     tq = np.concatenate([r.samples["torque"].to_numpy() for r in train])
     tw, tq = tw - tw.mean(), tq - tq.mean()
-    return rep["transmission"], float(tw @ tq / (tw @ tw))
+    return rep, float(tw @ tq / (tw @ tw))
 
 
 def test_the_angle_lag_column_is_the_speed_on_a_transmission_law_only():
@@ -54,18 +55,33 @@ def test_the_angle_lag_column_is_the_speed_on_a_transmission_law_only():
 def test_a_late_output_angle_is_named_time_delay_with_its_lag(lag_s):
     """5 ms: without the column in the per-run zeros, the zeros took up to a step of the lag in
     every run and `backlash` was named before it (held-out shrinkage 0.27 vs 0.20)."""
-    law, k = _twist_law(lag_s)
+    rep, k = _diagnosed(lag_s)
+    law = rep["transmission"]
     v = law["verdict"]
     assert v["status"] == "explained" and v["effects"] == ["time_delay"], v["summary"]
     assert v["shapes"]["time_delay"] == {"angle": 1.0}
     cand = next(c for c in law["candidates"] if c["effect"] == "time_delay")
     assert cand["shrinkage"] > 0.4
     assert cand["params"]["k_lag"]["value"] / k == pytest.approx(lag_s, rel=0.25)
+    # the verdict says which reading is late and by how much, in the JSON and the text alike
+    lag = rep["verdict"]["angle_lag"]
+    assert lag["reading"] == "q" and lag["lag_s"] == pytest.approx(lag_s, rel=0.25)
+    assert f"read {1e3 * lag['lag_s']:.2g} ms after u" in rep["verdict"]["summary"]
+
+
+def test_a_late_motor_angle_is_said_to_be_the_motor_angles():
+    rep, _ = _diagnosed(0.02, ("u", "ud"))
+    assert rep["verdict"]["effects"] == ["time_delay"], rep["verdict"]["summary"]
+    lag = rep["verdict"]["angle_lag"]
+    assert lag["reading"] == "u" and lag["lag_s"] == pytest.approx(0.02, rel=0.25)
+    assert "u, the motor angle, read" in rep["verdict"]["summary"]
 
 
 def test_the_same_campaign_read_on_time_names_nothing():
-    law, _ = _twist_law(0.0)
+    rep, _ = _diagnosed(0.0)
+    law = rep["transmission"]
     assert law["verdict"]["status"] == "none", law["verdict"]["summary"]
+    assert "angle_lag" not in rep["verdict"]
     cand = next(c for c in law["candidates"] if c["effect"] == "time_delay")
     assert not cand["significant"]
 
