@@ -608,9 +608,7 @@ def _note_angle_lag(verdict: dict, final: Fit | None, stiffness: float) -> bool:
     late, from its fitted k_lag = k·d and the training runs' least-squares `stiffness` k
     [N·m/rad]: `verdict.angle_lag` = {reading: 'q' (the output angle is read after the motor
     angle, k_lag > 0) or 'u', lag_s}. True when it was set."""
-    if (final is None or "k_lag" not in final.param_names
-            or (verdict.get("shapes") or {}).get("time_delay", {}).get("angle") != 1.0
-            or not stiffness > 0):
+    if final is None or "k_lag" not in final.param_names or not stiffness > 0:
         return False
     k_lag = float(final.mean[final.param_names.index("k_lag")])
     verdict["angle_lag"] = {"reading": "q" if k_lag > 0 else "u",
