@@ -175,6 +175,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig T 24 Hz, 0.015° encoder, 4+2 runs", "rig_t",
             {"sample_rate_hz": 24.0, "encoder_res_deg": 0.015, "torque_noise": 300.0},
             few_runs=True),
+    Variant("rig U 250 Hz, 0.001° encoder, 2 ms torque lag", "rig_u",
+            {"sample_rate_hz": 250.0, "encoder_res_deg": 0.001, "torque_noise": 150.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig U 16 Hz, 0.02° encoder, 4+2 runs", "rig_u",
+            {"sample_rate_hz": 16.0, "encoder_res_deg": 0.02, "torque_noise": 250.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
