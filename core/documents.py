@@ -306,7 +306,7 @@ class DiagnosisVerdict(TypedDict, total=False):
     structured_share_before: float
     structured_share_after: float
     noise_floor_rms: float
-    noise_floor_source: Literal["sensors", "first differences"]
+    noise_floor_source: Literal["sensors", "first differences", "held-out residual"]
     residual_after: dict[str, Any]
     summary: str
     laws: dict[str, dict[str, Any]]

@@ -88,8 +88,8 @@ from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov, block_size,
-                                       bootstrap_shrinkage, cross_correlation, spectral_line,
-                                       whiteness)
+                                       bootstrap_shrinkage, cross_correlation, mean_se,
+                                       spectral_line, whiteness)
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
                                               twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
@@ -236,6 +236,9 @@ class _Search:
     floor: float
     floor_white: float
     floor_sensor: float | None
+    floor_capped: bool
+    """The twist–torque law's floor is the lowest held-out mean square a fit reached, clearly
+    under the sensors' (whose surrogate overstated the encoders' rounding)."""
 
 
 def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
@@ -292,6 +295,15 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
     floor_sensor = sensor_floor(list(test_runs), model, dict(zip(model.param_names,
                                                                  base_fit.theta)), law_prep)
     floor = max(floor_white, floor_sensor or 0.0)
+    # no model beats the sensors on held-out runs: on a twist–torque law, whose floor is the
+    # encoders' rounding modelled by a surrogate (sensor_floor), a held-out mean square under
+    # it by more than opt.z_gain of its batch-means standard error (the nominal's, or a
+    # candidate's) shows the surrogate overstates the rounding, and caps the floor there
+    shown = [m for m, se in (mean_se(f.e_test ** 2, te_blocks)
+                             for f in [base_fit, *fits.values()])
+             if model.kind == "transmission" and m + opt.z_gain * se < floor]
+    floor_capped = bool(shown)
+    floor = min([floor, *shown])
     chosen, steps, cur, rejected = [], [], base_fit, []
     remaining = list(fits)
     first = True
@@ -347,7 +359,8 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
         remaining.remove(best)
     return _Search(base_fit=base_fit, e_all=e_all, angle_order=angle_order, where=where,
                    table=table, skipped=skipped, steps=steps, rejected=rejected, chosen=chosen,
-                   cur=cur, floor=floor, floor_white=floor_white, floor_sensor=floor_sensor)
+                   cur=cur, floor=floor, floor_white=floor_white, floor_sensor=floor_sensor,
+                   floor_capped=floor_capped)
 
 
 def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
@@ -494,7 +507,9 @@ def diagnose_detailed(train_runs: Sequence[RunData], test_runs: Sequence[RunData
                     "structured_share_before": float(structured_share),
                     "structured_share_after": float(share_after),
                     "noise_floor_rms": float(np.sqrt(floor)),
-                    "noise_floor_source": ("sensors" if floor_sensor and floor_sensor > floor_white
+                    "noise_floor_source": ("held-out residual" if found.floor_capped
+                                           else "sensors" if floor_sensor
+                                           and floor_sensor > floor_white
                                            else "first differences"),
                     "residual_after": {k: after[k] for k in ("structured", "reasons")},
                     "held_out_coverage": held_out_coverage(tr, te)},

@@ -94,8 +94,9 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
 
 def _stage_orders(sig: dict, e_train: np.ndarray, opt: DiagnosisOptions) -> list[float]:
     """The two strongest orders of the training residual on u [cycles per output revolution]
-    above opt.ripple_orders, up to opt.stage_ripple_max_order and 0.8 × the Nyquist order of
-    the sampling at the runs' median speed |q̇| (faster samples alias those orders: they add
+    above opt.ripple_orders, up to opt.stage_ripple_max_order (None: the runs' reduction N,
+    the motor's first order) and 0.8 × the Nyquist order of the sampling at the runs' median
+    speed |q̇| (faster samples alias those orders: they add
     noise to the screen and the fit, not a line). Long campaigns are screened
     on every s-th sample (about 2·10⁵ kept, s no larger than that Nyquist order allows), by
     the periodogram (diagnosis_stats.angle_periodogram)."""
@@ -111,12 +112,23 @@ def _stage_orders(sig: dict, e_train: np.ndarray, opt: DiagnosisOptions) -> list
         return []
     fs = 1.0 / float(np.median(dt))
     k_nyq = np.pi * fs / w            # k·w/2π = fs/2
-    hi = int(min(opt.stage_ripple_max_order, 0.8 * k_nyq))
+    hi = int(min(stage_max_order(sig, opt), 0.8 * k_nyq))
     if hi < lo:
         return []
     stride = min(max(1, int(0.8 * k_nyq / hi)), max(1, int(np.ceil(e_train.size / 200_000))))
     e = e_train[::stride] - np.mean(e_train[::stride])
     return [float(k) for k in angle_periodogram(e, sig["u"][::stride], lo, hi)]
+
+
+def stage_max_order(sig: dict, opt: DiagnosisOptions) -> float:
+    """The highest intermediate-stage order [cycles per output revolution] searched on u:
+    opt.stage_ripple_max_order, or when it is None the runs' stated reduction N (2000 when they
+    state none)."""
+    if opt.stage_ripple_max_order is not None:
+        return float(opt.stage_ripple_max_order)
+    red = sig.get("reduction")
+    n_red = float(np.max(red)) if red is not None and red.size else 0.0
+    return n_red if n_red > 0 else 2000.0
 
 
 def bouc_wen_grid(sig: dict, opt: DiagnosisOptions, disp: str = "torsion") -> list[dict]:

@@ -81,13 +81,34 @@ def stated_resolution(run: RunData, channel: str) -> float:
 
 def twist_step(run: RunData) -> float:
     """The step [rad] with which one run measures the twist: its `torsion` channel's stated
-    step when it records the twist itself and states one (the law reads that channel), else
-    the sum of the output and motor encoders' stated steps; 0 when it states neither."""
-    if "torsion" in run.samples.columns and stated_resolution(run, "torsion") > 0:
+    step when a sensor of its own measures the twist and states one (the law reads that
+    channel), else the sum of the output and motor encoders' stated steps (a `torsion` that
+    is q − u of them, `derived_torsion`, included); 0 when it states neither."""
+    if ("torsion" in run.samples.columns and stated_resolution(run, "torsion") > 0
+            and not derived_torsion(run)):
         return stated_resolution(run, "torsion")
     if stated_resolution(run, "q") <= 0:
         return 0.0
     return stated_resolution(run, "q") + stated_resolution(run, "u")
+
+
+def derived_torsion(run: RunData) -> bool:
+    """True when the run's `torsion` channel is q − u of its own encoder readings (to within a
+    nanoradian, or a hundredth of the finest step the run states for q, u or torsion, on every
+    sample where all three are finite): a twist computed from the encoders, not measured."""
+    cols = run.samples.columns
+    if not {"torsion", "q", "u"} <= set(cols):
+        return False
+    d = run.channel("torsion") - (run.channel("q") - run.channel("u"))
+    d = d[np.isfinite(d)]
+    if not d.size:
+        return False
+    sensors = run.meta.get("sensors") or {}
+    steps = [float((sensors.get(ch) or {}).get("resolution", 0.0) or 0.0)
+             for ch in ("q", "u", "torsion")]
+    steps = [st for st in steps if st > 0]
+    tol = max(1e-9, 0.01 * min(steps)) if steps else 1e-9
+    return float(np.max(np.abs(d))) <= tol
 
 
 def _available(run: RunData, prep: PrepOptions) -> list[str]:

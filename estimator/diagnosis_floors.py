@@ -10,6 +10,7 @@ import numpy as np
 from scipy import signal
 
 from core.run import RunData
+from estimator.diagnosis_data import derived_torsion
 from estimator.models import LinearModel
 from estimator.preprocess import PrepOptions, prepare
 
@@ -58,15 +59,20 @@ def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float
     prediction against the smooth angles, averaged over QUANTISATION_OFFSETS shifts. So the
     floor follows what the law does with a step — a stiffening curve's local slope, the damping
     of the twist rate, the low-pass that averages the error of an encoder crossing many steps
-    and keeps that of one creeping or at rest. 0 when no encoder states its step or the run
-    records the twist itself (`torsion`) and states no step for it; when it does, that
-    channel is the one smoothed and quantised again."""
+    and keeps that of one creeping or at rest. A `torsion` channel that is the difference
+    q − u of the run's encoder readings (`derived_torsion`) carries their rounding, not one
+    of its own: the encoders are smoothed and quantised again and the torsion recomputed from
+    them (a twist that barely moves while q crosses many steps is read with a near-white
+    error, which the law's low-pass averages). A torsion measured by its own sensor is the
+    channel smoothed and quantised again, at its stated step. 0 when no channel the twist is
+    read from states its step."""
     sensors = run.meta.get("sensors") or {}
     cols = run.samples.columns
-    chans = ("torsion",) if "torsion" in cols else ("q", "u")
+    derived = derived_torsion(run)
+    chans = ("torsion",) if "torsion" in cols and not derived else ("q", "u")
     steps = {ch: float((sensors.get(ch) or {}).get("resolution", 0.0)) for ch in chans}
     steps = {ch: st for ch, st in steps.items() if st > 0 and ch in cols}
-    if not steps or ("torsion" not in cols and not {"q", "u"} <= set(cols)):
+    if not steps or (chans != ("torsion",) and not {"q", "u"} <= set(cols)):
         return 0.0
     t = run.t
     fs = float(run.meta.get("sample_rate_hz") or 1.0 / np.median(np.diff(t)))
@@ -82,6 +88,8 @@ def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float
     base = run.samples.copy()
     for ch in steps:
         base[ch] = np.where(np.isfinite(run.channel(ch)), smooth[ch], np.nan)
+    if derived:
+        base["torsion"] = base["q"] - base["u"]
     try:
         ref = model.predict(prepare(RunData(base, run.meta), need, prep), theta)
     except (KeyError, ValueError):
@@ -92,6 +100,8 @@ def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float
         for ch, st in steps.items():
             o = st * (j + 0.5) / QUANTISATION_OFFSETS
             shifted[ch] = np.round((base[ch].to_numpy() + o) / st) * st - o
+        if derived:
+            shifted["torsion"] = shifted["q"] - shifted["u"]
         pred = model.predict(prepare(RunData(shifted, run.meta), need, prep), theta)
         d = pred - ref
         ms.append(float(np.mean(d[np.isfinite(d)] ** 2)) if np.isfinite(d).any() else 0.0)

@@ -49,10 +49,13 @@ class DiagnosisOptions:
     ripple_harmonics: int = 3
     """Harmonics of a gear ripple searched besides the single sine: the strongest order on
     each angle is also tried with its 2nd … ripple_harmonics-th harmonic (1: none)."""
-    stage_ripple_max_order: int = 2000
+    stage_ripple_max_order: int | None = None
     """Highest order [cycles per output revolution] searched on u for an intermediate gear
     stage's transmission error (orders above `ripple_orders` up to this, and below the
-    sampled Nyquist order at the runs' median speed), when the runs carry u."""
+    sampled Nyquist order at the runs' median speed), when the runs carry u. None: the runs'
+    stated reduction N, the motor's first order (a stage between the output and the motor
+    turns slower than the motor; whole motor turns are `motor_ripple_orders`), or 2000 when
+    the runs state no reduction."""
     stribeck_vs_rel: tuple[float, ...] = (0.03, 0.06, 0.1, 0.2, 0.35, 0.6)
     """Stribeck speeds searched, as fractions of the training runs' top |q̇|."""
     stribeck_delta: tuple[float, ...] = (0.5, 1.0, 2.0, 0.0)

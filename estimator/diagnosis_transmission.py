@@ -10,7 +10,8 @@ import numpy as np
 
 from core.run import RunData
 from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid, ls_stiffness
-from estimator.diagnosis_data import _pool, base_model, stated_resolution, twist_step
+from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated_resolution,
+                                      twist_step)
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, knee_column, with_stiffening
@@ -196,12 +197,13 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     q̇ and the candidate would take the lag (estimator.diagnosis_candidates.
     angle_lag_objection) — otherwise the zeros take up to a step of it in every run and leave
     the lag's column a remainder that no longer follows the speed. A recorded twist
-    (`torsion`) is zeroed the same way within the step its channel states, and not at all when
-    it states none."""
+    (`torsion`) that is q − u of the encoders (estimator.diagnosis_data.derived_torsion) is
+    their twist; one measured by its own sensor is zeroed the same way within the step its
+    channel states, and not at all when it states none."""
     runs = list(train_runs) + list(test_runs)
     # a recorded twist whose own step is not stated: its zero is not known to be an encoder's
-    unstated = any("torsion" in r.samples.columns and stated_resolution(r, "torsion") <= 0
-                   for r in runs)
+    unstated = any("torsion" in r.samples.columns and not derived_torsion(r)
+                   and stated_resolution(r, "torsion") <= 0 for r in runs)
     if not resolution or resolution <= 0 or unstated:
         return list(train_runs), list(test_runs), None
     n = len(train_runs)

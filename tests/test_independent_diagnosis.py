@@ -588,3 +588,23 @@ def test_a_late_encoder_is_named_time_delay_and_a_leftover_under_the_rounding_is
     rig_j = next(v for v in VARIANTS if v.rig == "rig_j" and v.few_runs)
     c = run_cell(rig_j, 2209, None, None, 0.0, "none")
     assert c["status"] == "none", c
+
+
+@pytest.mark.slow
+def test_a_stage_ripple_above_order_2000_is_searched_up_to_the_reduction():
+    """Rig T's input-shaft transmission error (2 and 4 cycles per turn of the main stage's input
+    shaft, which turns N/10 = 1100 times per output turn: orders 2200 and 4400 on u) lay above
+    the stage orders searched while they stopped at 2000; rig T's blind score missed it in 4 of
+    4 campaigns. Searched up to the runs' reduction N (the motor's first order), it is named on
+    the twist–torque law at its order."""
+    rig_t = next(v for v in VARIANTS if v.rig == "rig_t" and not v.few_runs)
+    c = run_cell(rig_t, 2209, "gear_ripple", "input_shaft_kinematic", 1.0, "single")
+    assert "gear_ripple" in c["laws"]["transmission"], c
+    import numpy as np
+    from estimator.diagnosis_candidates import stage_max_order
+    from estimator.diagnosis_options import DiagnosisOptions
+    red = np.full(3, 11000.0)
+    assert stage_max_order({"reduction": red}, DiagnosisOptions()) == 11000.0
+    assert stage_max_order({"reduction": np.zeros(3)}, DiagnosisOptions()) == 2000.0
+    assert stage_max_order({"reduction": red},
+                           DiagnosisOptions(stage_ripple_max_order=500)) == 500.0

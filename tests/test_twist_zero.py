@@ -97,17 +97,58 @@ def test_a_recorded_twist_that_states_its_step_is_zeroed_within_it():
     tx = rep["transmission"]
     assert tx["verdict"]["status"] == "none", tx["verdict"]
     zero = tx["baseline"]["twist_zero"]
-    assert zero["resolution"] == pytest.approx(step)
+    # the twist is q − u of its encoders: its step is theirs, the output's plus the motor's
+    assert zero["resolution"] == pytest.approx(step + train[0].meta["sensors"]["u"]["resolution"])
     assert all(abs(s) <= zero["bound_nm"] for s in zero["shift_nm"])
     model = model_from_spec("eq5")
     params = {"k": 1.4e7, "D": 0.0, "C": 0.0}
     assert quantisation_floor(train[0], model, params, PrepOptions()) > 0.0
-    # a recorded twist that states no step keeps its zero and has no floor, as before
-    bare_train = [_torsion_step_unstated(r) for r in train]
-    bare_test = [_torsion_step_unstated(r) for r in test]
+    # a twist measured by its own sensor (not q − u) that states no step keeps its zero and
+    # has no floor
+    bare_train = [_own_sensor(_torsion_step_unstated(r)) for r in train]
+    bare_test = [_own_sensor(_torsion_step_unstated(r)) for r in test]
     assert quantisation_floor(bare_train[0], model, params, PrepOptions()) == 0.0
     _, _, none = twist_zeros(bare_train, bare_test, model, PrepOptions(), step)
     assert none is None
+
+
+def _own_sensor(run: RunData) -> RunData:
+    """The run with a `torsion` that is no longer q − u: a strain gauge's reading, off the
+    encoders' difference by a slow 2·10⁻⁵ rad wave."""
+    import numpy as np
+    s = run.samples.copy()
+    s["torsion"] = s["torsion"] + 2e-5 * np.sin(0.3 * s["t"])
+    return RunData(samples=s, meta=run.meta)
+
+
+def test_a_recorded_twist_that_is_the_encoders_difference_carries_their_floor():
+    """Rig T records `torsion` = q − u and states for it the output encoder's step. The floor
+    surrogate quantised that channel, smoothed, on its own grid: a twist that barely moves
+    read with an error constant for seconds, which the law's low-pass keeps (760 N·m RMS at
+    24 Hz, above the nominal law's whole held-out residual of 352). The twist is the
+    encoders' difference, and q crosses many steps while the twist stands: quantised as the
+    encoders, the floor is 405 N·m. Rigs that record q − u and state no step for it had no
+    floor at all; they now have the encoders'."""
+    import numpy as np
+    from estimator.diagnosis_data import derived_torsion, twist_step
+    from estimator.diagnosis_floors import quantisation_floor
+    rig_t = next(v for v in VARIANTS if v.rig == "rig_t" and v.few_runs)
+    train, _, _ = simulate_campaign(rig_t, 2209, periods=1)
+    run = train[0]
+    assert derived_torsion(run) and not derived_torsion(_own_sensor(run))
+    step_q = run.meta["sensors"]["q"]["resolution"]
+    assert twist_step(run) == pytest.approx(step_q + run.meta["sensors"]["u"]["resolution"])
+    model = model_from_spec("eq5")
+    params = {"k": 1.2e7, "D": 0.0, "C": 0.0}
+    prep = PrepOptions(decimate=5)
+    as_encoders = quantisation_floor(run, model, params, prep)
+    as_own = quantisation_floor(_own_sensor(run), model, params, prep)
+    rounding = (params["k"] * step_q) ** 2 / 12.0
+    assert np.sqrt(as_encoders) < 0.75 * np.sqrt(as_own), (as_encoders, as_own)
+    assert as_own > 0.5 * rounding
+    # stated for the encoders only, the derived twist still has their floor
+    bare = _torsion_step_unstated(run)
+    assert quantisation_floor(bare, model, params, prep) == pytest.approx(as_encoders)
 
 
 def test_a_dead_zone_too_narrow_to_tell_from_a_soft_centre_says_so():
