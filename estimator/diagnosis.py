@@ -299,9 +299,10 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
     # encoders' rounding modelled by a surrogate (sensor_floor), a held-out mean square under
     # it by more than opt.z_gain of its batch-means standard error (the nominal's, or a
     # candidate's) shows the surrogate overstates the rounding, and caps the floor there
-    shown = [m for m, se in (mean_se(f.e_test ** 2, te_blocks)
-                             for f in [base_fit, *fits.values()])
-             if model.kind == "transmission" and m + opt.z_gain * se < floor]
+    shown = ([m for m, se in (mean_se(f.e_test ** 2, te_blocks)
+                              for f in [base_fit, *fits.values()])
+              if m + opt.z_gain * se < floor]
+             if model.kind == "transmission" else [])
     floor_capped = bool(shown)
     floor = min([floor, *shown])
     chosen, steps, cur, rejected = [], [], base_fit, []

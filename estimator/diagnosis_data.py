@@ -103,10 +103,7 @@ def derived_torsion(run: RunData) -> bool:
     d = d[np.isfinite(d)]
     if not d.size:
         return False
-    sensors = run.meta.get("sensors") or {}
-    steps = [float((sensors.get(ch) or {}).get("resolution", 0.0) or 0.0)
-             for ch in ("q", "u", "torsion")]
-    steps = [st for st in steps if st > 0]
+    steps = [st for st in (stated_resolution(run, ch) for ch in ("q", "u", "torsion")) if st > 0]
     tol = max(1e-9, 0.01 * min(steps)) if steps else 1e-9
     return float(np.max(np.abs(d))) <= tol
 

@@ -10,7 +10,7 @@ import numpy as np
 from scipy import signal
 
 from core.run import RunData
-from estimator.diagnosis_data import derived_torsion
+from estimator.diagnosis_data import derived_torsion, stated_resolution
 from estimator.models import LinearModel
 from estimator.preprocess import PrepOptions, prepare
 
@@ -66,12 +66,11 @@ def quantisation_floor(run: RunData, model: LinearModel, params: dict[str, float
     error, which the law's low-pass averages). A torsion measured by its own sensor is the
     channel smoothed and quantised again, at its stated step. 0 when no channel the twist is
     read from states its step."""
-    sensors = run.meta.get("sensors") or {}
     cols = run.samples.columns
     derived = derived_torsion(run)
     chans = ("torsion",) if "torsion" in cols and not derived else ("q", "u")
-    steps = {ch: float((sensors.get(ch) or {}).get("resolution", 0.0)) for ch in chans}
-    steps = {ch: st for ch, st in steps.items() if st > 0 and ch in cols}
+    steps = {ch: stated_resolution(run, ch) for ch in chans if ch in cols}
+    steps = {ch: st for ch, st in steps.items() if st > 0}
     if not steps or (chans != ("torsion",) and not {"q", "u"} <= set(cols)):
         return 0.0
     t = run.t

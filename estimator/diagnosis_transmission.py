@@ -223,14 +223,15 @@ def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],
     k = ls_stiffness(tr)
     if not k > 0:
         return list(train_runs), list(test_runs), None
-    replay = model
+    replay, theta = model, None
     if lagged is not None and "qd" in tr:
         theta = ols(lagged.design(tr), lagged.target(tr)).theta
         # a lag the candidate would be refused (under the rounding, or only the direction's):
         # the zeros take what a zero can
         if angle_lag_objection(lagged, theta, tr) is None:
             replay = lagged
-    theta = ols(replay.design(tr), replay.target(tr)).theta
+    if replay is model:
+        theta = ols(model.design(tr), model.target(tr)).theta
     bound = k * resolution
     e = replay.target(pooled) - replay.design(pooled) @ theta
     ok = np.isfinite(e)
