@@ -181,6 +181,12 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig U 16 Hz, 0.02° encoder, 4+2 runs", "rig_u",
             {"sample_rate_hz": 16.0, "encoder_res_deg": 0.02, "torque_noise": 250.0},
             few_runs=True),
+    Variant("rig V 1 kHz, 0.005° encoder, 1 ms torque lag", "rig_v",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.005, "torque_noise": 180.0,
+             "torque_lag_s": 0.001}),
+    Variant("rig V 40 Hz, 0.012° encoder, 4+2 runs", "rig_v",
+            {"sample_rate_hz": 40.0, "encoder_res_deg": 0.012, "torque_noise": 220.0},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
