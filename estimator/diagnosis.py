@@ -75,7 +75,7 @@ import numpy as np
 from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
                                             _score, ls_stiffness, predicted_shrinkage,
-                                            run_consistency)
+                                            ripple_shown, run_consistency)
 from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
 from estimator.diagnosis_coverage import held_out_coverage
 from estimator.diagnosis_data import (OPTIONAL_SIGNALS, _available, _pool, _slice, base_model,
@@ -343,6 +343,13 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
             if scored[n]["structure_removed"] < opt.min_structure_share:
                 rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
                 continue
+            # a gear ripple must show where it repeats: on the runs that each span
+            # opt.ripple_min_periods of its periods, not only on slow runs it is smooth over
+            if n == "gear_ripple":
+                scored[n]["ripple"] = ripple_shown(cur, trial[n], te, te_blocks, opt)
+                if not scored[n]["ripple"]["shown"]:
+                    rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
+                    continue
             if not chosen:
                 best = n
                 break

@@ -12,7 +12,7 @@ import numpy as np
 from core import effects as fx
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import (angle_lines, angle_periodogram, blocks_improved_z,
-                                       mean_se)
+                                       covering_runs, mean_se)
 from estimator.least_squares import OLSResult, leave_one_group_out, ols
 from estimator.models import V_EPS, LinearModel, Term, physical_objection
 
@@ -29,11 +29,14 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         return [{"v_s": r * top, "delta": d} for d in opt.stribeck_delta
                 for r in opt.stribeck_vs_rel]
     if name == "gear_ripple":
-        # only orders whose ripple period the runs' travel covers at least twice: below that a
-        # sine of the angle is a smooth function of it (a stiffness, a gravity-like term) and
-        # not a ripple; then screen by the nominal residual's angular lines, fit the strongest
+        # only orders whose ripple period the runs' travel covers opt.ripple_min_periods times:
+        # below that a sine of the angle is a smooth function of it (a stiffness, a gravity-like
+        # term) and not a ripple (a ripple is also kept only where it shows on the runs that
+        # each span them, ripple_shown); then screen by the nominal residual's angular lines,
+        # fit the strongest
         travel = float(np.ptp(sig["q"]))
-        orders = np.asarray([k for k in opt.ripple_orders if k * travel >= 4.0 * np.pi])
+        orders = np.asarray([k for k in opt.ripple_orders
+                             if k * travel >= 2.0 * np.pi * opt.ripple_min_periods])
         groups = []
         if orders.size:
             top = angle_lines(e_train, sig["q"], orders).get("top_orders")
@@ -42,7 +45,8 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # motor angle N·u, opt.motor_ripple_orders cycles per motor revolution, when the runs
         # carry u and say their reduction N (the order on u is then k·N)
         n_red = float(sig["reduction"][0]) if "reduction" in sig and sig["reduction"].size else 0.0
-        if "u" in sig and n_red > 0 and np.ptp(sig["u"]) * n_red >= 4.0 * np.pi:
+        if ("u" in sig and n_red > 0
+                and np.ptp(sig["u"]) * n_red >= 2.0 * np.pi * opt.ripple_min_periods):
             m_orders = np.asarray(opt.motor_ripple_orders, dtype=float) * n_red
             top = angle_lines(e_train, sig["u"], m_orders).get("top_orders") or []
             groups.append([{"order": float(k), "motor": 1.0} for k in top[:2]])
@@ -372,6 +376,36 @@ def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
             "significant": bool(by_gain or by_blocks),
             "concentrated": bool(by_blocks and not by_gain),
             **({"objection": new.objection} if new.objection else {})}
+
+
+def ripple_shown(cur: _Fit, new: _Fit, te: dict, te_blocks: np.ndarray,
+                 opt: DiagnosisOptions) -> dict:
+    """A gear ripple's held-out evidence on the runs whose angle path spans
+    opt.ripple_min_periods of its periods (covering_runs, on u for a motor-side or stage ripple,
+    else q): the score's significance (_score: shrinkage ≥ opt.min_shrinkage, z or the blocks
+    improved > opt.z_gain) on those runs' samples alone. On a slow run that sweeps less, a sine
+    of the angle is a smooth function of it and fits whatever drifts in time over that run; a
+    ripple shows where it repeats. Returns angle, order, runs (held-out runs covering it),
+    shrinkage, z, z_blocks_improved (None without such a run) and shown."""
+    shape = new.shape
+    ang = "u" if shape.get("motor", 0.0) else "q"
+    order = float(shape["order"])
+    cv = covering_runs(te["run"], te["t"], te[ang], order, opt.ripple_min_periods)
+    out = {"angle": ang, "order": order, "runs": int(np.unique(te["run"][cv]).size),
+           "shrinkage": None, "z": None, "z_blocks_improved": None, "shown": False}
+    if not cv.any():
+        return out
+    d = cur.e_test[cv] ** 2 - new.e_test[cv] ** 2
+    gain, se = mean_se(d, te_blocks[cv])
+    r0, r1 = _rmse(cur.e_test[cv]), _rmse(new.e_test[cv])
+    shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
+    z = gain / se if np.isfinite(se) and se > 0 else 0.0
+    z_sign = blocks_improved_z(d, te_blocks[cv])
+    shown = shrink >= opt.min_shrinkage and (
+        z > opt.z_gain or (shrink >= opt.concentrated_min_shrinkage and z_sign > opt.z_gain))
+    out.update(shrinkage=float(shrink), z=float(z), z_blocks_improved=float(z_sign),
+               shown=bool(shown))
+    return out
 
 
 def _predicted(cur: _Fit, new: _Fit, rmse_before_test: float, opt: DiagnosisOptions) -> float:

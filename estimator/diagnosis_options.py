@@ -49,6 +49,11 @@ class DiagnosisOptions:
     ripple_harmonics: int = 3
     """Harmonics of a gear ripple searched besides the single sine: the strongest order on
     each angle is also tried with its 2nd … ripple_harmonics-th harmonic (1: none)."""
+    ripple_min_periods: float = 2.0
+    """Periods of a ripple a run's own travel must span for the run to show it: orders are
+    searched only where the campaign's travel spans this many, and a gear ripple is kept only
+    when its held-out gain on the runs that each span them is significant
+    (estimator.diagnosis_candidates.ripple_shown)."""
     stage_ripple_max_order: int | None = None
     """Highest order [cycles per output revolution] searched on u for an intermediate gear
     stage's transmission error (orders above `ripple_orders` up to this, and below the
@@ -153,6 +158,9 @@ class DiagnosisOptions:
     flagged regions' members, for plots (api reports); 0: no series."""
 
     def __post_init__(self) -> None:
+        if not 1.0 <= self.ripple_min_periods < 100.0:   # NaN fails too
+            raise ValueError("ripple_min_periods must be a number of periods in [1, 100), not "
+                             f"{self.ripple_min_periods!r}")
         if not 0.0 <= self.concentrated_min_shrinkage <= 1.0:   # NaN fails too
             raise ValueError("concentrated_min_shrinkage must be a shrinkage in [0, 1], not "
                              f"{self.concentrated_min_shrinkage!r}")

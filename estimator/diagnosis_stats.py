@@ -266,3 +266,31 @@ def block_robust_cov(X: np.ndarray, e: np.ndarray, blocks: np.ndarray) -> np.nda
     np.add.at(sums, inv, X * e[:, None])
     bread = np.linalg.pinv(X.T @ X)
     return bread @ (sums.T @ sums) @ bread * (g / (g - 1))
+
+
+def covering_runs(run: np.ndarray, t: np.ndarray, angle: np.ndarray, order: float,
+                  periods: float, window_s: float = 0.5) -> np.ndarray:
+    """Mask of the samples of the runs whose angle path spans at least `periods` periods of a
+    ripple of `order` [cycles per revolution]: the path is the angle [rad] swept counting every
+    pass (a trajectory that runs back and forth over a range sweeps it each time), read on the
+    angle's means over `window_s` [s] so that an encoder dithering between two steps at rest
+    adds no path. On a run that sweeps less, a sine of the angle is a smooth function of it
+    and anything slow over the run (a drift in time, a settling) fits it as well as a ripple
+    would; revisiting the same angles at other times is what tells the two apart."""
+    run = np.asarray(run)
+    t = np.asarray(t, dtype=float)
+    angle = np.asarray(angle, dtype=float)
+    keep = np.zeros(run.size, dtype=bool)
+    for r in np.unique(run):
+        m = run == r
+        ok = np.isfinite(angle[m]) & np.isfinite(t[m])
+        a, tt = angle[m][ok], t[m][ok]
+        if a.size < 2:
+            continue
+        w = np.floor((tt - tt[0]) / window_s).astype(np.int64)
+        means = np.bincount(w, weights=a) / np.maximum(np.bincount(w), 1)
+        means = means[np.bincount(w) > 0]
+        path = float(np.abs(np.diff(means)).sum())
+        if order * path >= 2.0 * np.pi * periods:
+            keep |= m
+    return keep
