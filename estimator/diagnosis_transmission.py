@@ -13,6 +13,7 @@ from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid, l
 from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated_resolution,
                                       twist_step)
 from estimator.diagnosis_options import DiagnosisOptions
+from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size
 from estimator.least_squares import ols
 from estimator.models import LinearModel, eq11, knee_column, with_stiffening
 from estimator.preprocess import PrepOptions
@@ -90,22 +91,25 @@ def twist_resolution(runs: Sequence[RunData]) -> float | None:
     return max(steps) if steps and min(steps) > 0 else None
 
 
-def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
-                resolution: float | None) -> float | None:
-    """The half-width θ₀ [rad] of a soft centre of the compliance curve, or None. θ₀ is the
-    half-width, over the dead zones the backlash candidate searches (`opt.backlash_b_rel` of
-    the training twist's top |Δ|, SOFT_CENTRE_GRID values), of the stiffness change that fits
-    the elastic law best with the curve's two knees. It is kept only when the stiffness it
-    leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the stiffness beyond it by
-    `opt.z_gain` standard errors of the fit. A gear train whose teeth take up the load
-    progressively is softer near zero twist: a harmonic drive's catalogue K1 is 0.5–0.7 of K2,
-    the nominal curve's first segment. A dead zone takes the stiffness away inside its gap
-    (k_in ≈ 0): that is backlash, left to its candidate. The data tell the two apart only when
-    the centre spans `opt.soft_centre_min_steps` of the twist's `resolution` [rad]: a narrower
-    dead zone seen through the encoders' rounding is a centre of reduced stiffness too. None
-    when the runs do not state their encoders' steps."""
-    if resolution is None or resolution <= 0:
-        return None
+def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
+                resolution: float | None) -> tuple[str, float] | None:
+    """A centre of the compliance curve that differs from the rest: ("soft", θ₀), ("stiff", θ₀)
+    or None; θ₀ [rad] is its half-width. θ₀ is the half-width, over the dead zones the backlash
+    candidate searches (`opt.backlash_b_rel` of the training twist's top |Δ|, SOFT_CENTRE_GRID
+    values), of the stiffness change that fits the elastic law best with the curve's two knees.
+    - A softer centre (the stiffness beyond θ₀ is higher): a gear train whose teeth take up the
+      load progressively; a harmonic drive's catalogue K1 is 0.5–0.7 of K2. It is kept only when
+      the stiffness it leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the
+      stiffness beyond it by `opt.z_gain` standard errors of the fit. A dead zone takes the
+      stiffness away inside its gap (k_in ≈ 0): that is backlash, left to its candidate. The
+      data tell the two apart only when the centre spans `opt.soft_centre_min_steps` of the
+      twist's `resolution` [rad]: a narrower dead zone seen through the encoders' rounding is a
+      centre of reduced stiffness too. None when the runs do not state their encoders' steps.
+    - A stiffer centre (the stiffness beyond θ₀ is lower): a preloaded stage, whose preload
+      holds the teeth on both flanks until the torque exceeds it; no dead zone makes one. It
+      is kept when the stiffness change is negative by `opt.z_gain` of its standard error
+      robust to the residual's correlation within the batch-means blocks (block_robust_cov):
+      the curve's other terms leave a residual that is far from white when they miss it."""
     top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
@@ -122,7 +126,17 @@ def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
             best, best_rss = theta, rss
     if best is None:
         return None
-    fit = ols(np.column_stack([base, knee_column(best)(tr)]), y)
+    X = np.column_stack([base, knee_column(best)(tr)])
+    fit = ols(X, y)
+    if fit.theta[-1] < 0:
+        run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
+        blocks = block_ids(run, block_size(run, opt.block))
+        se = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+        if np.isfinite(se) and -fit.theta[-1] > opt.z_gain * se:
+            return ("stiff", float(best))
+        return None
+    if resolution is None or resolution <= 0:
+        return None
     r = opt.soft_centre_min_ratio
     c = np.zeros(fit.theta.size)
     c[0], c[-1] = 1.0 - r, -r          # k_in − r·(k_in + dk)
@@ -130,7 +144,7 @@ def soft_centre(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     se = float(np.sqrt(max(c @ fit.cov @ c, 0.0)))
     if (fit.theta[-1] > 0 and np.isfinite(se) and margin > opt.z_gain * se
             and best >= opt.soft_centre_min_steps * resolution):
-        return float(best)
+        return ("soft", float(best))
     return None
 
 
@@ -143,13 +157,14 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
     model / spec of estimator.models; each with a stiffness that changes with the twist
     (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
     law, identified like k, not a gap; its knees from compliance_knees, reported in the
-    shape as knee_1, knee_2 [rad], and a soft centre's half-width from soft_centre as
-    soft_centre [rad] when the curve has one)."""
+    shape as knee_1, knee_2 [rad], and the half-width of a softer or stiffer centre from
+    centre_knee as soft_centre or stiff_centre [rad] when the curve has one)."""
     knees = compliance_knees(tr, opt)
     knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
-    centre = soft_centre(tr, knees, opt, resolution)
-    if centre is not None:
-        knee_shape["soft_centre"] = centre
+    found = centre_knee(tr, knees, opt, resolution)
+    centre = found[1] if found else None
+    if found:
+        knee_shape[f"{found[0]}_centre"] = found[1]
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
         from scipy.optimize import minimize
 

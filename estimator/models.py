@@ -170,24 +170,25 @@ def knee_column(knee: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]
 
 
 def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
-                    soft_centre: float | None = None) -> LinearModel:
+                    centre: float | None = None) -> LinearModel:
     """The twist–torque law `m` plus the compliance curve a real transmission has, identified
     like k: a cubic k3·Δ³ [N·m/rad³] (a gear train stiffening smoothly as its teeth take load)
     and, at each knee twist θ_j [rad], a change of stiffness dk_j [N·m/rad] beyond it,
     dk_j·sgn(Δ)·max(|Δ| − θ_j, 0) — a harmonic drive's catalogue curve is three slopes
     K1 < K2 < K3 joined at two knee torques (Taghirad & Bélanger), which no single k and no
-    smooth polynomial of Δ follows. With `soft_centre` θ₀ [rad], a change dk_0 beyond θ₀ as
+    smooth polynomial of Δ follows. With `centre` θ₀ [rad], a change dk_0 beyond θ₀ as
     well: the centre of a curve whose teeth take up the load progressively is softer (k is then
-    the stiffness inside ±θ₀). Named '<m>+stiffening'; m unchanged when it has k3 already."""
+    the stiffness inside ±θ₀), or, with dk_0 < 0, a stiffer centre (a preloaded stage). Named
+    '<m>+stiffening'; m unchanged when it has k3 already."""
     if "k3" in m.param_names:
         return m
     terms = [Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
                   ("torsion",))]
     desc = {"k3": "cubic stiffness: the stiffness rises by 3·k3·Δ²"}
-    if soft_centre is not None:
-        terms.append(Term(f"soft centre to {soft_centre:.3g} rad", ("dk_0",), ("N·m/rad",),
-                          knee_column(float(soft_centre)), ("torsion",)))
-        desc["dk_0"] = f"stiffness change beyond the soft centre's half-width {soft_centre:.3g} rad"
+    if centre is not None:
+        terms.append(Term(f"centre to {centre:.3g} rad", ("dk_0",), ("N·m/rad",),
+                          knee_column(float(centre)), ("torsion",)))
+        desc["dk_0"] = f"stiffness change beyond the centre's half-width {centre:.3g} rad"
     for j, knee in enumerate(knees, start=1):
         terms.append(Term(f"knee {j} at {knee:.3g} rad", (f"dk_{j}",), ("N·m/rad",),
                           knee_column(float(knee)), ("torsion",)))

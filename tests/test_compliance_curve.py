@@ -165,7 +165,7 @@ def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
     """A transmission softer near zero twist (its teeth taking up the load progressively:
     stiffness K_in inside ±θ, K beyond, K_in/K = 0.55) is nominal; a dead zone (no stiffness
     inside its gap) is left to the backlash candidate, and so is a smoothed one."""
-    from estimator.diagnosis_transmission import soft_centre
+    from estimator.diagnosis_transmission import centre_knee
     k, theta = 1.5e7, 0.8e-3
     opt = DiagnosisOptions()
 
@@ -183,17 +183,43 @@ def test_a_soft_centre_is_the_curves_first_segment_and_a_dead_zone_is_not():
     found = {}
     for name, curve in (("soft", soft), ("dead", dead), ("smoothed dead", smoothed_dead)):
         sig = signals(curve)
-        found[name] = soft_centre(sig, compliance_knees(sig, opt), opt, 1e-5)
+        found[name] = centre_knee(sig, compliance_knees(sig, opt), opt, 1e-5)
     top = float(np.quantile(np.abs(signals(soft)["torsion"]), 0.99))
-    assert found["soft"] is not None and abs(found["soft"] - theta) < 0.5 * theta, found
+    assert found["soft"] is not None and found["soft"][0] == "soft", found
+    assert abs(found["soft"][1] - theta) < 0.5 * theta, found
     assert found["dead"] is None and found["smoothed dead"] is None, found
-    assert found["soft"] <= max(opt.backlash_b_rel) * top
+    assert found["soft"][1] <= max(opt.backlash_b_rel) * top
     sig = signals(soft)
     knees = compliance_knees(sig, opt)
     # a centre a few encoder steps wide cannot be told from a dead zone blurred by the rounding,
     # and without the steps stated there is no telling at all
-    assert soft_centre(sig, knees, opt, theta / 3.0) is None
-    assert soft_centre(sig, knees, opt, None) is None
+    assert centre_knee(sig, knees, opt, theta / 3.0) is None
+    assert centre_knee(sig, knees, opt, None) is None
+
+
+def test_a_stiffer_centre_is_the_curves_first_segment():
+    """A preloaded stage is stiffer near zero twist (a step of torque across zero, the preload:
+    rig V's T = k·Δ + T_s·tanh(Δ/θ_s)). No dead zone makes one, so it needs no encoder step to
+    be told from backlash; a linear law has none."""
+    from estimator.diagnosis_transmission import centre_knee
+    opt = DiagnosisOptions()
+    k, t_s, theta = 1.3e7, 5e3, 2e-4
+
+    def preloaded(d):
+        return k * d + t_s * np.tanh(d / theta)
+
+    def two_slope(d):
+        return k * d + 0.6 * k * np.clip(d, -1e-3, 1e-3)     # stiffer within ±1 mrad
+
+    for curve, width in ((preloaded, theta), (two_slope, 1e-3)):
+        sig = signals(curve)
+        found = centre_knee(sig, compliance_knees(sig, opt), opt, None)
+        assert found is not None and found[0] == "stiff", found
+        assert width / 3.0 < found[1] < 3.0 * width, found
+    for seed in range(4):      # a linear law's noise makes no stiffer centre
+        sig = signals(lambda d: k * d, seed=seed)
+        found = centre_knee(sig, compliance_knees(sig, opt), opt, None)
+        assert found is None, found
 
 
 def test_friction_that_falls_short_of_coulomb_at_low_speed_is_not_stribeck():
