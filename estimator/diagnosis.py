@@ -343,8 +343,8 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
             if scored[n]["structure_removed"] < opt.min_structure_share:
                 rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
                 continue
-            # a gear ripple must show where it repeats: on the runs that each span
-            # opt.ripple_min_periods of its periods, not only on slow runs it is smooth over
+            # a gear ripple must show where it repeats: on the held-out runs whose angle path
+            # sweeps opt.ripple_min_periods of its periods, not only on slow runs it is smooth over
             if n == "gear_ripple":
                 scored[n]["ripple"] = ripple_shown(cur, trial[n], te, te_blocks, opt)
                 if not scored[n]["ripple"]["shown"]:

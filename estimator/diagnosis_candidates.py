@@ -31,8 +31,8 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
     if name == "gear_ripple":
         # only orders whose ripple period the runs' travel covers opt.ripple_min_periods times:
         # below that a sine of the angle is a smooth function of it (a stiffness, a gravity-like
-        # term) and not a ripple (a ripple is also kept only where it shows on the runs that
-        # each span them, ripple_shown); then screen by the nominal residual's angular lines,
+        # term) and not a ripple (a ripple is also kept only where it shows on the runs whose
+        # angle path sweeps them, ripple_shown); then screen by the nominal residual's angular lines,
         # fit the strongest
         travel = float(np.ptp(sig["q"]))
         orders = np.asarray([k for k in opt.ripple_orders

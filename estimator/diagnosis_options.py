@@ -50,9 +50,9 @@ class DiagnosisOptions:
     """Harmonics of a gear ripple searched besides the single sine: the strongest order on
     each angle is also tried with its 2nd … ripple_harmonics-th harmonic (1: none)."""
     ripple_min_periods: float = 2.0
-    """Periods of a ripple a run's own travel must span for the run to show it: orders are
+    """Periods of a ripple a run's angle path must sweep for the run to show it: orders are
     searched only where the campaign's travel spans this many, and a gear ripple is kept only
-    when its held-out gain on the runs that each span them is significant
+    when its held-out gain on the runs whose path sweeps them is significant
     (estimator.diagnosis_candidates.ripple_shown)."""
     stage_ripple_max_order: int | None = None
     """Highest order [cycles per output revolution] searched on u for an intermediate gear
