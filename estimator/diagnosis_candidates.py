@@ -32,8 +32,8 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # only orders whose ripple period the runs' travel covers opt.ripple_min_periods times:
         # below that a sine of the angle is a smooth function of it (a stiffness, a gravity-like
         # term) and not a ripple (a ripple is also kept only where it shows on the runs whose
-        # angle path sweeps them, ripple_shown); then screen by the nominal residual's angular lines,
-        # fit the strongest
+        # angle path sweeps them, ripple_shown); then screen by the nominal residual's angular
+        # lines, fit the strongest
         travel = float(np.ptp(sig["q"]))
         orders = np.asarray([k for k in opt.ripple_orders
                              if k * travel >= 2.0 * np.pi * opt.ripple_min_periods])
@@ -354,39 +354,51 @@ def _rmse(e: np.ndarray) -> float:
     return float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
 
 
-def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
-           tr: dict | None = None) -> dict:
-    d = cur.e_test ** 2 - new.e_test ** 2
-    gain, se = mean_se(d, te_blocks)
-    r0, r1 = _rmse(cur.e_test), _rmse(new.e_test)
+def _held_out_gain(e_cur: np.ndarray, e_new: np.ndarray, blocks: np.ndarray,
+                   opt: DiagnosisOptions, objection: str | None = None) -> dict:
+    """The held-out gain of a fit whose residual is e_new over one whose residual is e_cur
+    (blocks: the batch-means block of each sample), and whether it is significant: a shrinkage
+    of at least opt.min_shrinkage, no physical objection, and z > opt.z_gain, or — a gain that
+    sits in a few blocks (a lag's, at the torque steps), whose z stays near √(those blocks) —
+    a shrinkage of at least opt.concentrated_min_shrinkage with more blocks improved than
+    chance gives by opt.z_gain (whether they improve does not depend on where it sits)."""
+    d = e_cur ** 2 - e_new ** 2
+    gain, se = mean_se(d, blocks)
+    r0, r1 = _rmse(e_cur), _rmse(e_new)
     shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
     z = gain / se if np.isfinite(se) and se > 0 else 0.0
-    # a gain that sits in a few blocks (a lag's, at the torque steps) keeps z near √(those
-    # blocks); whether more blocks improve than chance gives does not depend on where it sits
-    z_sign = blocks_improved_z(d, te_blocks)
-    ok = new.objection is None and shrink >= opt.min_shrinkage
+    z_sign = blocks_improved_z(d, blocks)
+    ok = objection is None and shrink >= opt.min_shrinkage
     by_gain = ok and z > opt.z_gain
     by_blocks = ok and shrink >= opt.concentrated_min_shrinkage and z_sign > opt.z_gain
-    return {"rmse_test": r1, "shrinkage": shrink,
-            "shrinkage_predicted": _predicted(cur, new, r0, opt),
+    return {"rmse_before": r0, "rmse_test": r1, "shrinkage": shrink, "gain": float(gain),
+            "gain_se": float(se), "z": float(z), "z_blocks_improved": float(z_sign),
+            "by_gain": bool(by_gain), "by_blocks": bool(by_blocks)}
+
+
+def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
+           tr: dict | None = None) -> dict:
+    g = _held_out_gain(cur.e_test, new.e_test, te_blocks, opt, new.objection)
+    return {"rmse_test": g["rmse_test"], "shrinkage": g["shrinkage"],
+            "shrinkage_predicted": _predicted(cur, new, g["rmse_before"], opt),
             "shrinkage_loro": (predicted_shrinkage(cur.model, new.model, tr) if tr is not None
                                else None),
-            "gain": float(gain), "gain_se": float(se), "z": float(z),
-            "z_blocks_improved": float(z_sign),
-            "significant": bool(by_gain or by_blocks),
-            "concentrated": bool(by_blocks and not by_gain),
+            "gain": g["gain"], "gain_se": g["gain_se"], "z": g["z"],
+            "z_blocks_improved": g["z_blocks_improved"],
+            "significant": g["by_gain"] or g["by_blocks"],
+            "concentrated": g["by_blocks"] and not g["by_gain"],
             **({"objection": new.objection} if new.objection else {})}
 
 
 def ripple_shown(cur: _Fit, new: _Fit, te: dict, te_blocks: np.ndarray,
                  opt: DiagnosisOptions) -> dict:
-    """A gear ripple's held-out evidence on the runs whose angle path spans
+    """A gear ripple's held-out evidence on the runs whose angle path sweeps
     opt.ripple_min_periods of its periods (covering_runs, on u for a motor-side or stage ripple,
-    else q): the score's significance (_score: shrinkage ≥ opt.min_shrinkage, z or the blocks
-    improved > opt.z_gain) on those runs' samples alone. On a slow run that sweeps less, a sine
-    of the angle is a smooth function of it and fits whatever drifts in time over that run; a
-    ripple shows where it repeats. Returns angle, order, runs (held-out runs covering it),
-    shrinkage, z, z_blocks_improved (None without such a run) and shown."""
+    else q): the score's significance test (_held_out_gain) on those runs' samples alone. On a
+    slow run that sweeps less, a sine of the angle is a smooth function of it and fits whatever
+    drifts in time over that run; a ripple shows where it repeats. Returns angle, order, runs
+    (held-out runs covering it), shrinkage, z, z_blocks_improved (None without such a run) and
+    shown."""
     shape = new.shape
     ang = "u" if shape.get("motor", 0.0) else "q"
     order = float(shape["order"])
@@ -395,16 +407,9 @@ def ripple_shown(cur: _Fit, new: _Fit, te: dict, te_blocks: np.ndarray,
            "shrinkage": None, "z": None, "z_blocks_improved": None, "shown": False}
     if not cv.any():
         return out
-    d = cur.e_test[cv] ** 2 - new.e_test[cv] ** 2
-    gain, se = mean_se(d, te_blocks[cv])
-    r0, r1 = _rmse(cur.e_test[cv]), _rmse(new.e_test[cv])
-    shrink = 1.0 - r1 / r0 if r0 > 0 else 0.0
-    z = gain / se if np.isfinite(se) and se > 0 else 0.0
-    z_sign = blocks_improved_z(d, te_blocks[cv])
-    shown = shrink >= opt.min_shrinkage and (
-        z > opt.z_gain or (shrink >= opt.concentrated_min_shrinkage and z_sign > opt.z_gain))
-    out.update(shrinkage=float(shrink), z=float(z), z_blocks_improved=float(z_sign),
-               shown=bool(shown))
+    g = _held_out_gain(cur.e_test[cv], new.e_test[cv], te_blocks[cv], opt)
+    out.update(shrinkage=float(g["shrinkage"]), z=g["z"],
+               z_blocks_improved=g["z_blocks_improved"], shown=g["by_gain"] or g["by_blocks"])
     return out
 
 
