@@ -561,6 +561,26 @@ def _fourier(t, fa, fb, wf, sgn):
 
 
 @njit(cache=True)
+def _newton_matrix(y, f, t, P, E, u, aux, typ, dh, yp, fp, jac, mat, piv):
+    """The TR-BDF2 stages' Newton matrix I − dh·J at (t, y), J by forward differences about
+    f = rhs(t, y), LU-factorised in place (mat, piv); yp, fp and jac are scratch arrays."""
+    n = y.size
+    for j in range(n):
+        dj = 1.5e-8 * max(abs(y[j]), typ[j])
+        for i in range(n):
+            yp[i] = y[i]
+        yp[j] += dj
+        _rhs(yp, t, P, E, u, fp, aux)
+        for i in range(n):
+            jac[i, j] = (fp[i] - f[i]) / dj
+    for i in range(n):
+        for j in range(n):
+            mat[i, j] = -dh * jac[i, j]
+        mat[i, i] += 1.0
+    _lu(mat, piv)
+
+
+@njit(cache=True)
 def _simulate(y0, P, E, atol, typ, h, m, nsamp, scheme, wset, tk, vk, fa, fb, wf, sgn, counts):
     """Integrate with TR-BDF2 + simplified Newton; record every m inner steps."""
     gam = 2.0 - math.sqrt(2.0)
@@ -655,21 +675,9 @@ def _simulate(y0, P, E, atol, typ, h, m, nsamp, scheme, wset, tk, vk, fa, fb, wf
                 rec[k, R_WREF] = wref
             else:
                 break
-        # ---- Jacobian (forward differences), refreshed every 16 steps --------------------
+        # ---- Jacobian (forward differences), refreshed every 40 steps --------------------
         if since_jac >= 40:
-            for j in range(n):
-                dj = 1.5e-8 * max(abs(y[j]), typ[j])
-                for i in range(n):
-                    yp[i] = y[i]
-                yp[j] += dj
-                _rhs(yp, t, P, E, u, fp, aux)
-                for i in range(n):
-                    jac[i, j] = (fp[i] - fn[i]) / dj
-            for i in range(n):
-                for j in range(n):
-                    mat[i, j] = -d * h * jac[i, j]
-                mat[i, i] += 1.0
-            _lu(mat, piv)
+            _newton_matrix(y, fn, t, P, E, u, aux, typ, d * h, yp, fp, jac, mat, piv)
             since_jac = 0
         since_jac += 1
         # ---- stage 1: trapezoid to t + γh ---------------------------------------------------
@@ -699,19 +707,7 @@ def _simulate(y0, P, E, atol, typ, h, m, nsamp, scheme, wset, tk, vk, fa, fb, wf
                 if it == 7 or it == 15:
                     # stalled: refresh the Jacobian at the current iterate
                     _rhs(Y, tt, P, E, u, fy, aux)
-                    for j in range(n):
-                        dj = 1.5e-8 * max(abs(Y[j]), typ[j])
-                        for i in range(n):
-                            yp[i] = Y[i]
-                        yp[j] += dj
-                        _rhs(yp, tt, P, E, u, fp, aux)
-                        for i in range(n):
-                            jac[i, j] = (fp[i] - fy[i]) / dj
-                    for i in range(n):
-                        for j in range(n):
-                            mat[i, j] = -d * h * jac[i, j]
-                        mat[i, i] += 1.0
-                    _lu(mat, piv)
+                    _newton_matrix(Y, fy, tt, P, E, u, aux, typ, d * h, yp, fp, jac, mat, piv)
                     since_jac = 1
             if not conv:
                 fails += 1
