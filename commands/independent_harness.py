@@ -187,6 +187,13 @@ VARIANTS: tuple[Variant, ...] = (
     Variant("rig V 40 Hz, 0.012° encoder, 4+2 runs", "rig_v",
             {"sample_rate_hz": 40.0, "encoder_res_deg": 0.012, "torque_noise": 220.0},
             few_runs=True),
+    Variant("rig W 450 Hz, 0.0025° encoder, 1.5 ms torque lag", "rig_w",
+            {"sample_rate_hz": 450.0, "encoder_res_deg": 0.0025, "torque_noise": 170.0,
+             "torque_lag_s": 0.0015}),
+    Variant("rig W 22 Hz, 0.016° encoder, 4 ms torque lag, 4+2 runs", "rig_w",
+            {"sample_rate_hz": 22.0, "encoder_res_deg": 0.016, "torque_noise": 240.0,
+             "torque_lag_s": 0.004},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
