@@ -614,7 +614,7 @@ def _note_narrow_dead_zone(verdict: dict, resolution: float | None,
                            opt: DiagnosisOptions) -> None:
     """A chosen backlash whose half-width b [rad] is under `opt.soft_centre_min_steps` of the
     twist's stated step is, through the encoders' rounding, the same thing to these runs as a
-    softer centre of the compliance curve (estimator.diagnosis_transmission.soft_centre, which
+    softer centre of the compliance curve (estimator.diagnosis_transmission.centre_knee, which
     takes a centre into the nominal only from that width): its ambiguity set says so
     (`soft_centre`: b in steps, the steps needed), and so does the verdict's text."""
     b = (verdict.get("shapes") or {}).get("backlash", {}).get("b")

@@ -101,12 +101,12 @@ class DiagnosisOptions:
     soft_centre_min_ratio: float = 0.25
     """Least stiffness inside a soft centre of the compliance curve, as a share of the stiffness
     beyond it, for the centre to be the nominal curve's first segment rather than a dead zone
-    (estimator.diagnosis_transmission.soft_centre): a dead zone leaves ≈ 0, a harmonic drive's catalogue
+    (estimator.diagnosis_transmission.centre_knee): a dead zone leaves ≈ 0, a harmonic drive's catalogue
     K1/K2 is 0.5–0.7; docs/diagnosis.md."""
     soft_centre_min_steps: float = 5.0
     """Least half-width of a soft centre, in steps of the twist's measurement (the encoders'
     stated resolution): a dead zone a few steps wide, blurred by the rounding, is a soft centre
-    too (estimator.diagnosis_transmission.soft_centre); docs/diagnosis.md."""
+    too (estimator.diagnosis_transmission.centre_knee); docs/diagnosis.md."""
     bw_yield_rel: tuple[float, ...] = (0.01, 0.02, 0.04, 0.07, 0.12, 0.2, 0.35)
     """Bouc–Wen yield twists α/(β+γ) searched (α = 1, n = 1; only α·k_h is identifiable), as
     fractions of the training runs' top |Δ| — for the nominal Bouc–Wen law and for the

@@ -97,6 +97,10 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     or None; θ₀ [rad] is its half-width. θ₀ is the half-width, over the dead zones the backlash
     candidate searches (`opt.backlash_b_rel` of the training twist's top |Δ|, SOFT_CENTRE_GRID
     values), of the stiffness change that fits the elastic law best with the curve's two knees.
+    Either is kept only when the stiffness change is nonzero by `opt.z_gain` of its standard
+    error robust to the residual's correlation within the batch-means blocks
+    (block_robust_cov): the curve's other terms leave a residual that is far from white when
+    they miss it, and a linear law's noise must not buy the nominal a free column.
     - A softer centre (the stiffness beyond θ₀ is higher): a gear train whose teeth take up the
       load progressively; a harmonic drive's catalogue K1 is 0.5–0.7 of K2. It is kept only when
       the stiffness it leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the
@@ -106,10 +110,8 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
       twist's `resolution` [rad]: a narrower dead zone seen through the encoders' rounding is a
       centre of reduced stiffness too. None when the runs do not state their encoders' steps.
     - A stiffer centre (the stiffness beyond θ₀ is lower): a preloaded stage, whose preload
-      holds the teeth on both flanks until the torque exceeds it; no dead zone makes one. It
-      is kept when the stiffness change is negative by `opt.z_gain` of its standard error
-      robust to the residual's correlation within the batch-means blocks (block_robust_cov):
-      the curve's other terms leave a residual that is far from white when they miss it."""
+      holds the teeth on both flanks until the torque exceeds it; no dead zone makes one, so
+      no encoder-step count is asked."""
     top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
@@ -128,13 +130,13 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
         return None
     X = np.column_stack([base, knee_column(best)(tr)])
     fit = ols(X, y)
-    if fit.theta[-1] < 0:
-        run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
-        blocks = block_ids(run, block_size(run, opt.block))
-        se = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
-        if np.isfinite(se) and -fit.theta[-1] > opt.z_gain * se:
-            return ("stiff", float(best))
+    run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
+    blocks = block_ids(run, block_size(run, opt.block))
+    se_dk = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+    if not (np.isfinite(se_dk) and abs(fit.theta[-1]) > opt.z_gain * se_dk):
         return None
+    if fit.theta[-1] < 0:
+        return ("stiff", float(best))
     if resolution is None or resolution <= 0:
         return None
     r = opt.soft_centre_min_ratio
