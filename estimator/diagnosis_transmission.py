@@ -110,8 +110,10 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
       twist's `resolution` [rad]: a narrower dead zone seen through the encoders' rounding is a
       centre of reduced stiffness too. None when the runs do not state their encoders' steps.
     - A stiffer centre (the stiffness beyond θ₀ is lower): a preloaded stage, whose preload
-      holds the teeth on both flanks until the torque exceeds it; no dead zone makes one, so
-      no encoder-step count is asked."""
+      holds the teeth on both flanks until the torque exceeds it; no dead zone makes one. The
+      preload it makes, |dk₀|·θ₀, must exceed the torque of half the twist's `resolution`
+      through the stiffness beyond it: the rounding of the twist reading makes a narrower,
+      smaller one (a centre a tenth of a step wide on a law with no preload)."""
     top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
@@ -136,7 +138,11 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     if not (np.isfinite(se_dk) and abs(fit.theta[-1]) > opt.z_gain * se_dk):
         return None
     if fit.theta[-1] < 0:
-        return ("stiff", float(best))
+        # the preload it makes beyond its half-width against the torque of half a twist-step
+        # through the stiffness beyond: a smaller one is the reading's rounding
+        preload = -fit.theta[-1] * best
+        rounding = (fit.theta[0] + fit.theta[-1]) * resolution / 2.0 if resolution else 0.0
+        return ("stiff", float(best)) if preload > rounding else None
     if resolution is None or resolution <= 0:
         return None
     r = opt.soft_centre_min_ratio

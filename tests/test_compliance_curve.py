@@ -218,6 +218,31 @@ def test_a_stiffer_centre_is_the_curves_first_segment():
         assert width / 3.0 < found[1] < 3.0 * width, found
 
 
+def test_a_twist_read_through_its_rounding_makes_no_stiffer_centre():
+    """A linear law whose twist dwells within a step or two of zero (an unloaded run: the
+    friction's torque moves while the reading sits at 0 or ±1 step) looks stiffer at its centre
+    through the rounding. The preload a stiffer centre makes must exceed the torque of half a
+    step through the stiffness beyond it. Before, each seed here kept one a tenth to a third of
+    a step wide, as the own emulator's nominal twist law did on every seed (and named backlash
+    on seed 5002 to undo it); rig V's 5 kN·m preload is 3.6-8 times that torque."""
+    from estimator.diagnosis_transmission import centre_knee
+    opt = DiagnosisOptions()
+    step = 1.745e-4
+    t = np.linspace(0.0, 240.0, 12000)
+    d = np.where(t < 120.0, 9.5e-3 * np.sin(2 * np.pi * t / 40.0) ** 3,
+                 2.5e-4 * np.sin(2 * np.pi * t / 20.0))
+    read = np.round(d / step) * step
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        sig = {"t": t, "torsion": read, "torsion_rate": np.gradient(read, t),
+               "torque": 1.3e7 * d + 5e4 * np.gradient(d, t) + 100.0 * rng.standard_normal(t.size),
+               "run": (t >= 120.0).astype(int)}
+        assert centre_knee(sig, compliance_knees(sig, opt), opt, step) is None, seed
+    # the same law with a 5 kN·m preload within ±0.2 mrad keeps its stiffer centre
+    sig["torque"] = sig["torque"] + 5e3 * np.tanh(d / 2e-4)
+    found = centre_knee(sig, compliance_knees(sig, opt), opt, step)
+    assert found is not None and found[0] == "stiff", found
+
 def test_a_linear_laws_noise_makes_no_centre():
     """A linear law's noise makes neither a stiffer nor a softer centre: either needs its
     stiffness change beyond z_gain of its block-robust standard error. Before, a softer centre
