@@ -88,8 +88,8 @@ from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_progress import report as progress
 from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov, block_size,
-                                       bootstrap_shrinkage, cross_correlation, mean_se,
-                                       spectral_line, whiteness)
+                                       bootstrap_shrinkage, covering_runs, cross_correlation,
+                                       mean_se, spectral_line, whiteness)
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
                                               twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
@@ -125,7 +125,15 @@ def _structure(e: np.ndarray, pooled: dict, blocks: np.ndarray, angle_order: int
     if line["p_value"] < 1e-3 and line["share"] > 0.05:
         reasons.append(f"spectral line at {line['freq_hz']:.3g} Hz")
     if ang and ang["p_value"] < 1e-3 and ang["amplitude"] > 0.2 * rms:
-        reasons.append(f"line at {ang['order']} cycles per output revolution")
+        # a line in the angle counts where it repeats: on the runs whose angle path sweeps
+        # opt.ripple_min_periods of its periods (the ripple rule's; over less, a sine of the
+        # angle fits anything slow)
+        cv = covering_runs(run, pooled["t"], pooled["q"], float(ang["order"]),
+                           opt.ripple_min_periods)
+        shown = (angle_lines(e[cv], pooled["q"][cv], np.asarray([float(ang["order"])]))
+                 if cv.sum() >= 20 else {"p_value": 1.0})
+        if shown["p_value"] < 1e-3:
+            reasons.append(f"line at {ang['order']} cycles per output revolution")
     return {"regions": regions, "whiteness": white, "cross_correlation": xc,
             "spectral_line": line, "angle_line": ang, "structured": bool(reasons),
             "reasons": reasons}
