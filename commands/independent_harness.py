@@ -194,6 +194,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 22.0, "encoder_res_deg": 0.016, "torque_noise": 240.0,
              "torque_lag_s": 0.004},
             few_runs=True),
+    Variant("rig X 600 Hz, 0.0015° encoder, 2.5 ms torque lag", "rig_x",
+            {"sample_rate_hz": 600.0, "encoder_res_deg": 0.0015, "torque_noise": 190.0,
+             "torque_lag_s": 0.0025}),
+    Variant("rig X 60 Hz, 0.01° encoder, 3 ms torque lag, 4+2 runs", "rig_x",
+            {"sample_rate_hz": 60.0, "encoder_res_deg": 0.01, "torque_noise": 230.0,
+             "torque_lag_s": 0.003},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
