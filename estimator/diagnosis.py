@@ -16,10 +16,7 @@ unmodelled effect of rig.md's vocabulary explains it, and how far the held-out e
    c_T·T·sgn q̇ and the first part is the Coulomb column, so every T_ref fits identically), the
    magnitude fitted on the training runs, and the candidate scored on the held-out runs: gain =
    mean over held-out samples of e_before² − e_after², with its batch-means standard error;
-   significant when gain/SE > z_gain and the held-out RMSE drops by at least min_shrinkage;
-   as the first effect also when the held-out gain/SE only passes z_held_out_agrees but the
-   campaign's pooled evidence does pass z_gain: held-out runs and each training run predicted
-   by a fit on the other training runs, the shape chosen without it (with_pooled_evidence).
+   significant when gain/SE > z_gain and the held-out RMSE drops by at least min_shrinkage.
    Ambiguity guard: a candidate whose magnitude is strongly correlated (|ρ| > 0.9 in the
    least-squares covariance) with a nominal parameter that it shifts by > 3 SE is reported with
    that parameter as an ambiguity set (`aliases`), and two candidates whose contributions,
@@ -78,8 +75,7 @@ import numpy as np
 from estimator.diagnosis_candidates import (_candidate_models, _contribution, _effect_params,
                                             _best_shape, _Fit, _fit, _moved, _predicted, _rmse,
                                             _score, ls_stiffness, predicted_shrinkage,
-                                            ripple_shown, run_consistency,
-                                            with_pooled_evidence)
+                                            ripple_shown, run_consistency)
 from estimator.diagnosis_channel import EFFECT as OFFSET, LOAD_READING_DRIFT, offset_channel
 from estimator.diagnosis_coverage import held_out_coverage
 from estimator.diagnosis_data import (OPTIONAL_SIGNALS, _available, _pool, _slice, base_model,
@@ -258,7 +254,7 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
             law_prep: PrepOptions, opt: DiagnosisOptions) -> _Search:
     """Fit `model` (the nominal), score every candidate effect on top of it and add effects
     greedily while the held-out gain stays significant; progress stages are named `law`."""
-    te_blocks, tr_blocks = blocks[~is_train], blocks[is_train]
+    te_blocks = blocks[~is_train]
     progress(f"{law}: nominal fit", 0, 1)
     base_fit = _fit(model, {}, tr, te)
     n_base = base_fit.theta.size
@@ -280,12 +276,9 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
     offset_alike = (set(_OFFSET_ALIKE) <= set(fits)
                     and _is_constant(_own_part(fits["torque_offset"], n_base, tr)))
     progress(f"{law}: scoring", 0, len(fits))
-    first_scores = {}
     for name, f in fits.items():
-        first_scores[name] = with_pooled_evidence(_score(base_fit, f, te_blocks, opt, tr),
-                                                  base_fit, f, cands[name], tr, tr_blocks,
-                                                  te_blocks, opt)
-        row = {"effect": name, "model": model.name, "shape": f.shape, **first_scores[name]}
+        row = {"effect": name, "model": model.name, "shape": f.shape,
+               **_score(base_fit, f, te_blocks, opt, tr)}
         row["params"] = _effect_params(f, n_base)
         row["moved"], row["aliases"] = _moved(base_fit, f, n_base)
         row["ambiguous_with"] = []
@@ -337,14 +330,7 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
                 trial[n] = _best_shape(ms, tr, te)
                 progress(stage, len(trial), len(grids))
         first = False
-        # the first effect may be significant by the campaign's pooled evidence (its table
-        # row); an effect beyond it must be significant on the held-out runs alone, the training
-        # runs left out one at a time voting only in the parsimony test below
-        if not chosen:
-            scored = {n: {k: v for k, v in first_scores[n].items() if k != "shrinkage_loro"}
-                      for n in trial}
-        else:
-            scored = {n: _score(cur, f, te_blocks, opt) for n, f in trial.items()}
+        scored = {n: _score(cur, f, te_blocks, opt) for n, f in trial.items()}
         progress(stage, len(trial), len(trial))
         if not scored:
             break

@@ -13,8 +13,7 @@ from core import effects as fx
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import (angle_lines, angle_periodogram, blocks_improved_z,
                                        covering_runs, mean_se)
-from estimator.least_squares import (OLSResult, leave_one_group_out, leave_one_group_out_selected,
-                                     ols)
+from estimator.least_squares import OLSResult, leave_one_group_out, ols
 from estimator.models import V_EPS, LinearModel, Term, physical_objection
 
 
@@ -459,47 +458,6 @@ def _contribution(base: _Fit, f: _Fit, tr: dict) -> np.ndarray:
     coef, *_ = np.linalg.lstsq(Xb, c, rcond=None)
     return c - Xb @ coef
 
-
-
-def pooled_evidence(cur: _Fit, new: _Fit, grid: list[tuple[dict, LinearModel]], tr: dict,
-                    tr_blocks: np.ndarray, te_blocks: np.ndarray, opt: DiagnosisOptions) -> dict:
-    """A candidate's gain over `cur` on every run of the campaign, each predicted by a fit that
-    has not seen it: the held-out runs (fitted on the training runs), and each training run
-    fitted on the other training runs with the candidate's shape chosen from its `grid` on them
-    too (nested: a shape chosen on all the training runs has seen the run it predicts). Its
-    batch-means z (z_pooled) pools the campaign's evidence, where the held-out runs alone may
-    hold little of it: a friction rise at low speed that only the training runs sweep slowly,
-    in a campaign of two held-out runs. The current model's shapes stay as chosen (its training
-    errors favour it: the test is conservative). Returns z_pooled and pooled_shown: z_pooled >
-    opt.z_gain; None with fewer than two training runs (no run to leave out)."""
-    if np.unique(tr["run"]).size < 2:
-        return {"z_pooled": None, "pooled_shown": False}
-    e0 = _loro_errors(cur.model, tr)
-    e1 = leave_one_group_out_selected(((m.design(tr), m.target(tr)) for _, m in grid),
-                                      tr["run"])
-    d = np.concatenate([e0 ** 2 - e1 ** 2, cur.e_test ** 2 - new.e_test ** 2])
-    gain, se = mean_se(d, np.concatenate([tr_blocks, te_blocks]))
-    z = gain / se if np.isfinite(se) and se > 0 else 0.0
-    return {"z_pooled": float(z), "pooled_shown": bool(z > opt.z_gain)}
-
-
-def with_pooled_evidence(row: dict, cur: _Fit, new: _Fit, grid: list[tuple[dict, LinearModel]],
-                         tr: dict, tr_blocks: np.ndarray, te_blocks: np.ndarray,
-                         opt: DiagnosisOptions) -> dict:
-    """`row` (a _score of a candidate against the nominal) made significant by the campaign's
-    pooled evidence (pooled_evidence) where the held-out runs alone do not make it so but agree:
-    no objection, a held-out shrinkage of at least opt.min_shrinkage and a held-out z above
-    opt.z_held_out_agrees (a one-sided 5 % test), and z_pooled above opt.z_gain. A held-out
-    loss is never outvoted by the training runs. The greedy search asks it of the first effect
-    only: an effect beyond the first must be significant on the held-out runs alone."""
-    if (row["significant"] or new.objection is not None or row["shrinkage"] < opt.min_shrinkage
-            or not row["z"] > opt.z_held_out_agrees):
-        return row
-    ev = pooled_evidence(cur, new, grid, tr, tr_blocks, te_blocks, opt)
-    out = {**row, "z_pooled": ev["z_pooled"]}
-    if ev["pooled_shown"]:
-        out.update(significant=True, concentrated=False, by_pooled=True)
-    return out
 
 
 def run_consistency(cur: _Fit, new: _Fit, tr: dict, te: dict) -> dict:

@@ -13,11 +13,6 @@ from estimator.diagnosis_regions import RegionOptions
 class DiagnosisOptions:
     z_gain: float = 3.0
     """Held-out gain / SE needed to call a candidate significant."""
-    z_held_out_agrees: float = 1.645
-    """Held-out gain / SE (one-sided 5 %) with which a first effect that is not significant on
-    the held-out runs alone is still significant when the campaign's pooled evidence — held-out
-    runs and training runs left out one at a time — reaches z_gain
-    (estimator.diagnosis_candidates.with_pooled_evidence); docs/diagnosis.md."""
     min_shrinkage: float = 0.005
     """Smallest held-out RMSE shrinkage that counts (1 − after/before)."""
     concentrated_min_shrinkage: float = 0.1
@@ -166,9 +161,6 @@ class DiagnosisOptions:
         if not 1.0 <= self.ripple_min_periods < 100.0:   # NaN fails too
             raise ValueError("ripple_min_periods must be a number of periods in [1, 100), not "
                              f"{self.ripple_min_periods!r}")
-        if not 0.0 <= self.z_held_out_agrees <= self.z_gain:   # NaN fails too
-            raise ValueError("z_held_out_agrees must be a z in [0, z_gain], not "
-                             f"{self.z_held_out_agrees!r}")
         if not 0.0 <= self.concentrated_min_shrinkage <= 1.0:   # NaN fails too
             raise ValueError("concentrated_min_shrinkage must be a shrinkage in [0, 1], not "
                              f"{self.concentrated_min_shrinkage!r}")

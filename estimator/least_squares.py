@@ -3,7 +3,6 @@ Square" column of Tables 3, 4 and 8)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,45 +93,4 @@ def leave_one_group_out(X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> np.
         b = np.concatenate([z for j, (_, _, z) in enumerate(blocks) if j != i])
         coef = np.linalg.lstsq(A, b, rcond=max(n, p) * np.finfo(float).eps)[0]
         e[m] = y[m] - Xn[m] @ coef
-    return e
-
-
-def leave_one_group_out_selected(designs: Iterable[tuple[np.ndarray, np.ndarray]],
-                                 groups: np.ndarray) -> np.ndarray:
-    """Leave-one-group-out errors of a model that is itself chosen among several designs: for
-    each left-out group, the design (X, y) of least RSS on the other groups is fitted on them and
-    predicts the group. A shape chosen on all the groups and then scored by leave_one_group_out
-    has seen the group it predicts; chosen here without it, the errors are those a new group
-    would show (nested cross-validation). The designs are read one at a time (memory: one design
-    and one error vector), each reduced per group to its QR factor as in leave_one_group_out."""
-    groups = np.asarray(groups)
-    labels = np.unique(groups)
-    masks = [groups == g for g in labels]
-    best_rss = np.full(labels.size, np.inf)
-    e = None
-    for X, y in designs:
-        X = np.asarray(X, dtype=float)
-        y = np.asarray(y, dtype=float)
-        n, p = X.shape
-        if e is None:
-            e = np.full(n, np.nan)
-        c = np.sqrt(np.sum(X * X, axis=0))
-        c = np.where(c > 0, c, 1.0)
-        Xn = X / c
-        fac = []
-        for m in masks:
-            Q, R = np.linalg.qr(Xn[m], mode="reduced")
-            z = Q.T @ y[m]
-            fac.append((R, z, float(y[m] @ y[m] - z @ z)))
-        for i, m in enumerate(masks):
-            A = np.vstack([f[0] for j, f in enumerate(fac) if j != i])
-            b = np.concatenate([f[1] for j, f in enumerate(fac) if j != i])
-            coef = np.linalg.lstsq(A, b, rcond=max(n, p) * np.finfo(float).eps)[0]
-            r = A @ coef - b
-            rss = float(r @ r) + sum(f[2] for j, f in enumerate(fac) if j != i)
-            if rss < best_rss[i]:
-                best_rss[i] = rss
-                e[m] = y[m] - Xn[m] @ coef
-    if e is None:
-        raise ValueError("leave_one_group_out_selected needs at least one design")
     return e

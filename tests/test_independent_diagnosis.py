@@ -649,36 +649,3 @@ def test_rig_w_names_its_twist_law_effects_and_leaves_its_nominal_to_what_it_dec
     c = run_cell(rig_w, 5001, "position_stiffness", mod.EFFECT_FORMS["position_stiffness"][0],
                  2.0, "oov")
     assert c["status"] in ("unexplained", "partly_explained"), c
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("rig,form", [("rig_u", "exponential"), ("rig_t", "gaussian")])
-def test_a_stribeck_curve_the_two_held_out_runs_show_little_of_is_named(rig, form):
-    """4 + 2-run campaigns at 16 and 24 Hz, seed 2209 (development data): the held-out runs
-    (3000 r/min and one Fourier run) sweep the friction rise at low speed too little to make
-    it significant alone (held-out z 2–2.9), and a wrong effect was named in its place (rig U:
-    `load_dependent_friction`; rig T: the lag it carries). The campaign's pooled evidence — the
-    training runs left out one at a time, the curve's shape chosen without them — names it
-    (estimator.diagnosis_candidates.with_pooled_evidence)."""
-    variant = next(v for v in VARIANTS if v.rig == rig and v.few_runs)
-    c = run_cell(variant, 2209, "stribeck", form, 1.0, "single")
-    assert c["named_first"] == "stribeck", c
-    assert c["laws"]["output"] == ["stribeck"], c
-
-
-
-@pytest.mark.slow
-def test_an_effect_beyond_the_first_needs_the_held_out_runs_alone():
-    """Rig V at 1 kHz, nominal, seed 4901 (development data): after its declared torque zero, a
-    Stribeck rise from its friction's presliding has a held-out z of 2.0 (four held-out runs,
-    one slow) and a pooled z of 10.7. Let the pooled evidence make a second effect significant
-    and `stribeck` is named beyond what the rig declares in every campaign of that variant; the
-    first effect alone may use it (estimator.diagnosis's greedy search)."""
-    from commands.independent_harness import rig_module
-    from estimator.diagnosis import diagnose
-    rig_v = next(v for v in VARIANTS if v.rig == "rig_v" and not v.few_runs)
-    train, test, _ = simulate_campaign(rig_v, 4901)
-    rep = diagnose(train, test, "eq4", transmission="eq5")
-    assert rep["steps"][0]["effect"] == "torque_offset", rep["verdict"]["summary"]
-    assert set(rep["verdict"]["effects"]) <= set(rig_module("rig_v").UNSTATED_VOCABULARY), \
-        rep["verdict"]["summary"]
