@@ -379,9 +379,9 @@ def test_an_intermediate_stages_transmission_error_is_a_gear_ripple():
 
 def test_validate_diagnosis_rig_selects_the_variants_and_refuses_an_unknown_rig(capsys):
     from commands.cli import main
-    assert main(["validate-diagnosis", "--independent", "--rig", "rig_x"]) == 2
+    assert main(["validate-diagnosis", "--independent", "--rig", "no_such_rig"]) == 2
     err = capsys.readouterr().err
-    assert "rig_x" in err and "rig_d" in err and len(err.strip().splitlines()) == 1
+    assert "no_such_rig" in err and "rig_d" in err and len(err.strip().splitlines()) == 1
     assert main(["validate-diagnosis", "--rig", "rig_d"]) == 2      # needs --independent
 
 
