@@ -352,9 +352,10 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
                 rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
                 continue
             # a gear ripple must show where it repeats: on the held-out runs whose angle path
-            # sweeps opt.ripple_min_periods of its periods, not only on slow runs it is smooth over
+            # sweeps opt.ripple_min_periods of its periods, not only on slow runs it is smooth
+            # over, and on the training runs that sweep them, each predicted from the others
             if n == "gear_ripple":
-                scored[n]["ripple"] = ripple_shown(cur, trial[n], te, te_blocks, opt)
+                scored[n]["ripple"] = ripple_shown(cur, trial[n], te, te_blocks, opt, tr)
                 if not scored[n]["ripple"]["shown"]:
                     rejected.append({"effect": n, "round": len(chosen) + 1, **scored[n]})
                     continue

@@ -391,25 +391,40 @@ def _score(cur: _Fit, new: _Fit, te_blocks: np.ndarray, opt: DiagnosisOptions,
 
 
 def ripple_shown(cur: _Fit, new: _Fit, te: dict, te_blocks: np.ndarray,
-                 opt: DiagnosisOptions) -> dict:
+                 opt: DiagnosisOptions, tr: dict | None = None) -> dict:
     """A gear ripple's held-out evidence on the runs whose angle path sweeps
     opt.ripple_min_periods of its periods (covering_runs, on u for a motor-side or stage ripple,
     else q): the score's significance test (_held_out_gain) on those runs' samples alone. On a
     slow run that sweeps less, a sine of the angle is a smooth function of it and fits whatever
-    drifts in time over that run; a ripple shows where it repeats. Returns angle, order, runs
-    (held-out runs covering it), shrinkage, z, z_blocks_improved (None without such a run) and
-    shown."""
+    drifts in time over that run; a ripple shows where it repeats. With the training runs `tr`,
+    it must repeat in them too: the training runs covering it, each predicted by the fit on the
+    other training runs (leave-one-run-out), must shrink by opt.min_shrinkage (the law's
+    materiality). The search spans hundreds of orders on two angles, and an order whose sine
+    follows a misfit the held-out runs share with the training runs' paths can pass the
+    held-out test alone. Returns angle, order, runs (held-out runs covering it), shrinkage, z,
+    z_blocks_improved (None without such a run), training_runs, shrinkage_training (None
+    without `tr` or such a run) and shown."""
     shape = new.shape
     ang = "u" if shape.get("motor", 0.0) else "q"
     order = float(shape["order"])
     cv = covering_runs(te["run"], te["t"], te[ang], order, opt.ripple_min_periods)
     out = {"angle": ang, "order": order, "runs": int(np.unique(te["run"][cv]).size),
-           "shrinkage": None, "z": None, "z_blocks_improved": None, "shown": False}
+           "shrinkage": None, "z": None, "z_blocks_improved": None, "training_runs": None,
+           "shrinkage_training": None, "shown": False}
     if not cv.any():
         return out
     g = _held_out_gain(cur.e_test[cv], new.e_test[cv], te_blocks[cv], opt)
     out.update(shrinkage=float(g["shrinkage"]), z=g["z"],
                z_blocks_improved=g["z_blocks_improved"], shown=g["by_gain"] or g["by_blocks"])
+    if tr is not None:
+        cvt = covering_runs(tr["run"], tr["t"], tr[ang], order, opt.ripple_min_periods)
+        out["training_runs"] = int(np.unique(tr["run"][cvt]).size)
+        if cvt.any():
+            r0 = _rmse(_loro_errors(cur.model, tr)[cvt])
+            r1 = _rmse(_loro_errors(new.model, tr)[cvt])
+            out["shrinkage_training"] = 1.0 - r1 / r0 if r0 > 0 else 0.0
+        out["shown"] = bool(out["shown"] and out["shrinkage_training"] is not None
+                            and out["shrinkage_training"] >= opt.min_shrinkage)
     return out
 
 
