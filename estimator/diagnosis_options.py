@@ -52,7 +52,8 @@ class DiagnosisOptions:
     ripple_min_periods: float = 2.0
     """Periods of a ripple a run's angle path must sweep for the run to show it: orders are
     searched only where the campaign's travel spans this many, and a gear ripple is kept only
-    when its held-out gain on the runs whose path sweeps them is significant
+    when its held-out gain on the runs whose path sweeps them is significant and the training
+    runs that sweep them, each predicted by a fit on the others, shrink by min_shrinkage
     (estimator.diagnosis_candidates.ripple_shown)."""
     stage_ripple_max_order: int | None = None
     """Highest order [cycles per output revolution] searched on u for an intermediate gear
