@@ -343,10 +343,15 @@ def _loro_errors(model: LinearModel, tr: dict) -> np.ndarray:
     return leave_one_group_out(X, y, run)
 
 
-def predicted_shrinkage(cur: LinearModel, new: LinearModel, tr: dict) -> float:
+def predicted_shrinkage(cur: LinearModel, new: LinearModel, tr: dict,
+                        where: np.ndarray | None = None) -> float:
     """Shrinkage predicted from the training runs alone: 1 − rmse_new/rmse_cur of the
-    leave-one-run-out errors (each run predicted as a held-out run would be)."""
-    r0, r1 = _rmse(_loro_errors(cur, tr)), _rmse(_loro_errors(new, tr))
+    leave-one-run-out errors (each run predicted as a held-out run would be), on the samples
+    `where` (a mask; None: all)."""
+    e0, e1 = _loro_errors(cur, tr), _loro_errors(new, tr)
+    if where is not None:
+        e0, e1 = e0[where], e1[where]
+    r0, r1 = _rmse(e0), _rmse(e1)
     return 1.0 - r1 / r0 if r0 > 0 else 0.0
 
 
@@ -420,9 +425,7 @@ def ripple_shown(cur: _Fit, new: _Fit, te: dict, te_blocks: np.ndarray,
         cvt = covering_runs(tr["run"], tr["t"], tr[ang], order, opt.ripple_min_periods)
         out["training_runs"] = int(np.unique(tr["run"][cvt]).size)
         if cvt.any():
-            r0 = _rmse(_loro_errors(cur.model, tr)[cvt])
-            r1 = _rmse(_loro_errors(new.model, tr)[cvt])
-            out["shrinkage_training"] = 1.0 - r1 / r0 if r0 > 0 else 0.0
+            out["shrinkage_training"] = predicted_shrinkage(cur.model, new.model, tr, cvt)
         out["shown"] = bool(out["shown"] and out["shrinkage_training"] is not None
                             and out["shrinkage_training"] >= opt.min_shrinkage)
     return out
