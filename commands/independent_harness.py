@@ -201,6 +201,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 60.0, "encoder_res_deg": 0.01, "torque_noise": 230.0,
              "torque_lag_s": 0.003},
             few_runs=True),
+    Variant("rig Y 350 Hz, 0.0035° encoder, 2 ms torque lag", "rig_y",
+            {"sample_rate_hz": 350.0, "encoder_res_deg": 0.0035, "torque_noise": 200.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig Y 28 Hz, 0.012° encoder, 8 ms torque lag, 4+2 runs", "rig_y",
+            {"sample_rate_hz": 28.0, "encoder_res_deg": 0.012, "torque_noise": 120.0,
+             "torque_lag_s": 0.008},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
