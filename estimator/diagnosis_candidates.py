@@ -63,6 +63,10 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         shapes = [sh for g in groups for sh in g]
         if opt.ripple_harmonics > 1:
             shapes += [{**g[0], "harmonics": float(opt.ripple_harmonics)} for g in groups]
+        # and a mesh whose ripple grows with the torque it carries (the same sine plus that
+        # sine times |T|), when the law has the torque reading
+        if "torque" in sig:
+            shapes += [{**g[0], "load": 1.0} for g in groups]
         return shapes
     if name == "backlash":
         # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)

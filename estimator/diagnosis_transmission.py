@@ -15,7 +15,7 @@ from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size
 from estimator.least_squares import ols
-from estimator.models import LinearModel, eq11, knee_column, with_stiffening
+from estimator.models import LinearModel, bouc_wen_x, eq11, knee_column, with_stiffening
 from estimator.preprocess import PrepOptions
 
 
@@ -113,7 +113,10 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
       holds the teeth on both flanks until the torque exceeds it; no dead zone makes one. The
       preload it makes, |dk₀|·θ₀, must exceed the torque of half the twist's `resolution`
       through the stiffness beyond it: the rounding of the twist reading makes a narrower,
-      smaller one (a centre a tenth of a step wide on a law with no preload)."""
+      smaller one (a centre a tenth of a step wide on a law with no preload). And it must fit
+      better than every passive loop of the hysteresis candidate's grid (bouc_wen_grid, k_h > 0):
+      a loop jumps at each reversal of the twist's rate, and where the runs reverse near zero
+      twist that jump is a stiffer centre too; taken into the nominal, it hides the loop."""
     top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
@@ -142,7 +145,19 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
         # through the stiffness beyond: a smaller one is the reading's rounding
         preload = -fit.theta[-1] * best
         rounding = (fit.theta[0] + fit.theta[-1]) * resolution / 2.0 if resolution else 0.0
-        return ("stiff", float(best)) if preload > rounding else None
+        if preload <= rounding:
+            return None
+        # a passive loop (hysteresis, k_h > 0) jumps at each reversal of the twist's rate; where
+        # the runs reverse near zero twist that is a stiffer centre too: the centre must fit
+        # better than the best loop of the hysteresis candidate's grid
+        for sh in bouc_wen_grid(tr, opt):
+            h = bouc_wen_x(tr, sh["alpha"], sh["beta"], sh["gamma"], int(sh["n"]))
+            h = h - q @ (q.T @ h)
+            hh = float(h @ h)
+            if hh > 0 and float(h @ y_left) > 0:
+                if float(y_left @ y_left) - float(h @ y_left) ** 2 / hh < best_rss:
+                    return None
+        return ("stiff", float(best))
     if resolution is None or resolution <= 0:
         return None
     r = opt.soft_centre_min_ratio

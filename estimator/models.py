@@ -366,7 +366,9 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     gear_ripple               A_sin·ripple(q, 1, order, 0) + A_cos·ripple(q, 1, order, π/2)
                               (the unknown phase made linear); one column A if `phase` is given;
                               shape motor=1: the same on u (the motor angle over N, `order` = k·N);
-                              shape harmonics=h: also at 2·order … h·order (two columns each)
+                              shape harmonics=h: also at 2·order … h·order (two columns each);
+                              shape load=1: also B_sin·|T|·ripple(…, 0) + B_cos·|T|·ripple(…, π/2),
+                              a mesh whose ripple grows with the torque it carries (T measured)
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor;
                               shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading;
                               shape thermal=1 adds c_temp · (temp − 25 °C), a strain-gauge zero
@@ -390,6 +392,9 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     motor = bool(shape.get("motor", 0.0)) if name == "gear_ripple" else False
     # and its `harmonics`: a mesh's ripple with its 2nd … harmonics-th harmonic
     harmonics = int(shape.get("harmonics", 1)) if name == "gear_ripple" else 1
+    # and its `load`: a mesh whose ripple amplitude grows with the torque it carries (a tooth
+    # pair's stiffness varying along the mesh; effects-in-the-wild: "amplitude varying with load")
+    load = bool(shape.get("load", 0.0)) if name == "gear_ripple" else False
     # load_dependent_friction's `power_flow` shape likewise: a coefficient per power-flow sign
     power_flow = (bool(shape.get("power_flow", 0.0)) if name == "load_dependent_friction"
                   else False)
@@ -403,7 +408,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # error proportional to the speed
     angle = bool(shape.get("angle", 0.0)) if name == "time_delay" else False
     shape = {k: v for k, v in shape.items()
-             if not ((name == "gear_ripple" and k in ("motor", "harmonics"))
+             if not ((name == "gear_ripple" and k in ("motor", "harmonics", "load"))
                      or (name == "load_dependent_friction" and k == "power_flow")
                      or (name == "temperature_friction" and k == "curvature")
                      or (name == "torque_offset" and k in ("settling", "thermal"))
@@ -466,7 +471,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
-        if "phase" in shape and not motor and harmonics == 1:
+        if "phase" in shape and not motor and harmonics == 1 and not load:
             ph = shape_params["phase"]
             return Term(name, ("A",), ("N·m",),
                         lambda s: fx.gear_ripple_torque(s["q"], 1.0, order, ph), ("q",))
@@ -475,11 +480,20 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         ang = "u" if motor else "q"
         names = tuple(f"A_{sc}{j if j > 1 else ''}" for j in range(1, harmonics + 1)
                       for sc in ("sin", "cos"))
-        return Term(name, names, ("N·m",) * len(names),
-                    lambda s: np.column_stack([
-                        fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
-                        for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
-                    (ang,))
+        if not load:
+            return Term(name, names, ("N·m",) * len(names),
+                        lambda s: np.column_stack([
+                            fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+                            for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
+                        (ang,))
+        # the load-modulated mesh: the same sines, and each again times |T|
+        return Term(name, names + ("B_sin", "B_cos"), ("N·m",) * len(names) + ("1", "1"),
+                    lambda s: np.column_stack(
+                        [fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+                         for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]
+                        + [np.abs(s["torque"]) * fx.gear_ripple_torque(s[ang], 1.0, order, ph)
+                           for ph in (0.0, np.pi / 2)]),
+                    (ang, "torque"))
     if name == "torque_offset":
         # a constant and a linear drift, plus the column of the shape: a zero that follows the
         # joint's temperature, or a reading that settles after start-up
