@@ -208,6 +208,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 28.0, "encoder_res_deg": 0.012, "torque_noise": 120.0,
              "torque_lag_s": 0.008},
             few_runs=True),
+    Variant("rig Z 120 Hz, 0.006° encoder, 3 ms torque lag", "rig_z",
+            {"sample_rate_hz": 120.0, "encoder_res_deg": 0.006, "torque_noise": 170.0,
+             "torque_lag_s": 0.003}),
+    Variant("rig Z 900 Hz, 0.002° encoder, 1 ms torque lag, 4+2 runs", "rig_z",
+            {"sample_rate_hz": 900.0, "encoder_res_deg": 0.002, "torque_noise": 210.0,
+             "torque_lag_s": 0.001},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
