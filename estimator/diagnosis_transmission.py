@@ -120,15 +120,21 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     top, base, q = _elastic_basis(tr, knees)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
+
+    def added(col: np.ndarray) -> tuple[float, float]:
+        """RSS and coefficient of the law with the column `col` added (profile least squares:
+        the column with the law's columns projected out); (inf, 0) for a column they span."""
+        h = col - q @ (q.T @ col)
+        hh = float(h @ h)
+        if hh <= 0:
+            return np.inf, 0.0
+        hy = float(h @ y_left)
+        return float(y_left @ y_left) - hy ** 2 / hh, hy / hh
+
     best, best_rss = None, np.inf
     for theta in np.geomspace(min(opt.backlash_b_rel) * top, max(opt.backlash_b_rel) * top,
                               SOFT_CENTRE_GRID):
-        h = knee_column(theta)(tr)
-        h = h - q @ (q.T @ h)
-        hh = float(h @ h)
-        if hh <= 0:
-            continue
-        rss = float(y_left @ y_left) - float(h @ y_left) ** 2 / hh
+        rss = added(knee_column(theta)(tr))[0]
         if rss < best_rss:
             best, best_rss = theta, rss
     if best is None:
@@ -151,12 +157,9 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
         # the runs reverse near zero twist that is a stiffer centre too: the centre must fit
         # better than the best loop of the hysteresis candidate's grid
         for sh in bouc_wen_grid(tr, opt):
-            h = bouc_wen_x(tr, sh["alpha"], sh["beta"], sh["gamma"], int(sh["n"]))
-            h = h - q @ (q.T @ h)
-            hh = float(h @ h)
-            if hh > 0 and float(h @ y_left) > 0:
-                if float(y_left @ y_left) - float(h @ y_left) ** 2 / hh < best_rss:
-                    return None
+            rss, k_h = added(bouc_wen_x(tr, sh["alpha"], sh["beta"], sh["gamma"], int(sh["n"])))
+            if k_h > 0 and rss < best_rss:
+                return None
         return ("stiff", float(best))
     if resolution is None or resolution <= 0:
         return None

@@ -480,20 +480,18 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         ang = "u" if motor else "q"
         names = tuple(f"A_{sc}{j if j > 1 else ''}" for j in range(1, harmonics + 1)
                       for sc in ("sin", "cos"))
-        if not load:
-            return Term(name, names, ("N·m",) * len(names),
-                        lambda s: np.column_stack([
-                            fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
-                            for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]),
-                        (ang,))
-        # the load-modulated mesh: the same sines, and each again times |T|
-        return Term(name, names + ("B_sin", "B_cos"), ("N·m",) * len(names) + ("1", "1"),
-                    lambda s: np.column_stack(
-                        [fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
-                         for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]
-                        + [np.abs(s["torque"]) * fx.gear_ripple_torque(s[ang], 1.0, order, ph)
-                           for ph in (0.0, np.pi / 2)]),
-                    (ang, "torque"))
+        units = ("N·m",) * len(names)
+        # the load-modulated mesh: also the first sine and cosine again times |T|
+        if load:
+            names, units = names + ("B_sin", "B_cos"), units + ("1", "1")
+
+        def ripple_columns(s):
+            cols = [fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+                    for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]
+            if load:
+                cols += [np.abs(s["torque"]) * c for c in cols[:2]]
+            return np.column_stack(cols)
+        return Term(name, names, units, ripple_columns, (ang, "torque") if load else (ang,))
     if name == "torque_offset":
         # a constant and a linear drift, plus the column of the shape: a zero that follows the
         # joint's temperature, or a reading that settles after start-up
