@@ -215,6 +215,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 900.0, "encoder_res_deg": 0.002, "torque_noise": 210.0,
              "torque_lag_s": 0.001},
             few_runs=True),
+    Variant("rig AA 250 Hz, 0.004° encoder, 2 ms torque lag", "rig_aa",
+            {"sample_rate_hz": 250.0, "encoder_res_deg": 0.004, "torque_noise": 140.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig AA 15 Hz, 0.015° encoder, 6 ms torque lag, 4+2 runs", "rig_aa",
+            {"sample_rate_hz": 15.0, "encoder_res_deg": 0.015, "torque_noise": 180.0,
+             "torque_lag_s": 0.006},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
