@@ -674,7 +674,14 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     # training sample rate): the Bouc–Wen state integrated along a twist that jitters by an
     # encoder step between samples carries spurious small loops that bias the shape
     tprep = replace(prep, decimate=prep.decimate * opt.transmission_decimate)
-    tr = _pool(train_runs, TRANSMISSION_SIGNALS, tprep, 0)
+    # the joint's temperature when every run has it: the nominal's stiffness may follow it
+    need = ("t",) + TRANSMISSION_SIGNALS + ("temp_joint",)
+    try:
+        for r in runs:
+            prepare(r, need, tprep)
+    except (KeyError, ValueError):
+        need = ("t",) + TRANSMISSION_SIGNALS
+    tr = _pool(train_runs, need[1:], tprep, 0)
     progress("twist–torque law: nominal shape", 0, 1)
     model, shape = transmission_model(spec, tr, opt, twist_resolution(runs))
     progress("twist–torque law: nominal shape", 1, 1)

@@ -78,7 +78,7 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # a constant and a linear drift, or a reading that also settles after start-up, or one
         # whose zero follows the joint's temperature (when the runs' temperatures differ)
         thermal = ([{"thermal": 1.0}] if "temp_joint" in sig
-                   and np.ptp(sig["temp_joint"]) >= opt.offset_thermal_min_span_c else [])
+                   and np.ptp(sig["temp_joint"]) >= opt.thermal_min_span_c else [])
         return [{}] + [{"settling": float(tau)} for tau in opt.offset_settling_s] + thermal
     if name == "temperature_friction":
         # the linear law, and curved (exponential) ones: a lubricant's viscosity is not linear

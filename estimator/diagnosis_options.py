@@ -84,9 +84,15 @@ class DiagnosisOptions:
     """Whether the output law's nominal carries that gain (where it can): None decides from the
     runs — the search runs without it, and again with it when it is significant on the held-out
     runs beside the effects chosen (estimator.diagnosis); True: always; False: never."""
-    offset_thermal_min_span_c: float = 5.0
-    """Span of the training runs' joint temperature [K] from which torque_offset is also tried
-    as a zero that follows it (a strain gauge's zero drift, N·m per K)."""
+    thermal_min_span_c: float = 5.0
+    """Span of the training runs' joint temperature [K] from which a law that follows it is
+    tried: torque_offset as a zero that drifts with it (a strain gauge's, N·m per K), and the
+    twist–torque nominal's stiffness change with it (stiffness_thermal)."""
+    stiffness_thermal: bool | None = None
+    """Whether the twist–torque nominal carries a stiffness that follows the joint's temperature
+    (estimator.models.with_stiffening): None decides from the training runs
+    (estimator.diagnosis_transmission.thermal_stiffness); True: whenever the runs carry
+    temp_joint; False: never."""
     temperature_curvatures: tuple[float, ...] = (0.03, 0.06, 0.1, -0.03)
     """Curvatures κ [1/K] of the temperature law searched besides the linear one
     (core.effects.temperature_friction_torque: a drag ∝ exp(κ·(T_ref − temp)) − 1)."""

@@ -13,9 +13,10 @@ from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid, l
 from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated_resolution,
                                       twist_step)
 from estimator.diagnosis_options import DiagnosisOptions
-from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size
+from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size, blocks_improved_z
 from estimator.least_squares import ols
-from estimator.models import LinearModel, bouc_wen_x, eq11, knee_column, with_stiffening
+from estimator.models import (LinearModel, bouc_wen_x, eq11, knee_column,
+                              thermal_stiffness_column, with_stiffening)
 from estimator.preprocess import PrepOptions
 
 
@@ -174,6 +175,78 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     return None
 
 
+def _confirmed_column(tr: dict, law: np.ndarray, col: np.ndarray,
+                      opt: DiagnosisOptions) -> bool:
+    """Whether the column `col` belongs in the elastic law whose columns are `law` (the third,
+    index 2, its constant) on the training signals `tr` (with run). Two tests:
+    - its coefficient is nonzero by `opt.z_gain` of its standard error robust to the residual's
+      correlation within the batch-means blocks (block_robust_cov), as centre_knee's is;
+    - it predicts runs it was not fitted on: each training run left out in turn, the law with
+      and without the column fitted on the others and replayed on it, with every run's own
+      zero (a constant per run) and the left-out run's mean error taken off. The pooled squared
+      error must fall, and more of the left-out runs' batch-means blocks must improve than
+      chance allows (sign test, z > `opt.z_gain`).
+    Why each run's own zero: runs each carry their own constant error (an encoder zeroed within
+    its step, twist_zeros), and a column nearly constant within a run, or of one sign there,
+    is one more constant per run: the block test alone calls such chance correlations
+    significant (a few hundred N·m on a law that lacks nothing). With the zeros taken out, only
+    what changes with the twist within the runs is left to the column."""
+    y = np.asarray(tr["torque"], dtype=float)
+    run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
+    X = np.column_stack([law, col])
+    fit = ols(X, y)
+    blocks = block_ids(run, block_size(run, opt.block))
+    se = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+    if not (np.isfinite(se) and abs(fit.theta[-1]) > opt.z_gain * se):
+        return False
+    runs = np.unique(run)
+    if runs.size < 3:
+        return False
+    zeros = (run[:, None] == runs[None, :]).astype(float)
+    without = np.column_stack([np.delete(law, 2, axis=1), zeros])
+    gain = np.empty(y.size)
+    sse = np.zeros(2)
+    for r in runs:
+        out = run == r
+        errs = []
+        for i, A in enumerate((without, np.column_stack([without, col]))):
+            keep = np.any(A[~out] != 0, axis=0)      # the left-out run's zero is not fitted
+            theta = np.linalg.lstsq(A[~out][:, keep], y[~out], rcond=None)[0]
+            e = y[out] - A[out][:, keep] @ theta
+            e = e - e.mean()
+            sse[i] += float(e @ e)
+            errs.append(e)
+        gain[out] = errs[0] ** 2 - errs[1] ** 2
+    return bool(sse[1] < sse[0] and blocks_improved_z(gain, blocks) > opt.z_gain)
+
+
+def _law(tr: dict, knees: tuple[float, float], centre: float | None) -> np.ndarray:
+    """The columns of the elastic law with the curve's `knees` and `centre` (_elastic_basis)."""
+    _, base, _ = _elastic_basis(tr, knees)
+    return np.column_stack([base] + ([knee_column(centre)(tr)] if centre is not None else []))
+
+
+def thermal_stiffness(tr: dict, knees: tuple[float, float], centre: float | None,
+                      opt: DiagnosisOptions) -> bool:
+    """Whether the elastic law with the curve's `knees` and `centre` (as centre_knee found it)
+    needs a stiffness that follows the joint's temperature (the column
+    k_T·Δ·(temp_joint − T_ref) of estimator.models.with_stiffening), on the training signals
+    `tr` (with temp_joint and run): a gearbox softens as it warms, and a campaign's runs span
+    tens of kelvin. Needed when the temperature spans `opt.thermal_min_span_c` and the column
+    passes _confirmed_column's two tests (`opt.stiffness_thermal` True: whenever it spans, False:
+    never). The temperature is nearly constant within a run, so over runs that each carry
+    their own zero this column is mostly one more constant per run: only with the zeros taken
+    out is a stiffness that differs from run to run with the temperature left to it."""
+    if opt.stiffness_thermal is False or "temp_joint" not in tr:
+        return False
+    temp = np.asarray(tr["temp_joint"], dtype=float)
+    if not np.ptp(temp) >= opt.thermal_min_span_c:
+        return False
+    if opt.stiffness_thermal:
+        return True
+    return _confirmed_column(tr, _law(tr, knees, centre), thermal_stiffness_column(tr), opt)
+
+
 def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
                        resolution: float | None = None) -> tuple[LinearModel, dict]:
     """The nominal twist–torque law and the shape chosen for it on the training signals `tr`:
@@ -183,14 +256,19 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
     model / spec of estimator.models; each with a stiffness that changes with the twist
     (estimator.models.with_stiffening: a real compliance curve is part of the nominal elastic
     law, identified like k, not a gap; its knees from compliance_knees, reported in the
-    shape as knee_1, knee_2 [rad], and the half-width of a softer or stiffer centre from
-    centre_knee as soft_centre or stiff_centre [rad] when the curve has one)."""
+    shape as knee_1, knee_2 [rad], the half-width of a softer or stiffer centre from
+    centre_knee as soft_centre or stiff_centre [rad] when the curve has one, and
+    stiffness_thermal 1.0 when the stiffness follows the joint's temperature (thermal_stiffness;
+    `tr` then carries temp_joint))."""
     knees = compliance_knees(tr, opt)
     knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
     found = centre_knee(tr, knees, opt, resolution)
     centre = found[1] if found else None
     if found:
         knee_shape[f"{found[0]}_centre"] = found[1]
+    thermal = thermal_stiffness(tr, knees, centre, opt)
+    if thermal:
+        knee_shape["stiffness_thermal"] = 1.0
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
         from scipy.optimize import minimize
 
@@ -211,11 +289,11 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
                        options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
         sh = shape(res.x if res.fun <= rss(v0) else v0)
         return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees,
-                                centre), {**sh, **knee_shape})
+                                centre, thermal), {**sh, **knee_shape})
     m = base_model(spec)
     if m.kind != "transmission":
         raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
-    return with_stiffening(m, knees, centre), knee_shape
+    return with_stiffening(m, knees, centre, thermal), knee_shape
 
 
 def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],

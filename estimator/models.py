@@ -35,8 +35,9 @@ _P = JointParams()
 V_EPS = _P.v_eps
 """Speed scale of the smoothed sign used by every friction column [rad/s] (core.params)."""
 THERMAL_ZERO_REF_C = 25.0
-"""Temperature [°C] at which torque_offset's thermal column is zero (its constant c0 takes the
-zero at any other reference)."""
+"""Temperature [°C] at which the thermal columns are zero: torque_offset's zero drift and the
+twist–torque law's stiffness change (with_stiffening); the constant c0 and the stiffness k take
+their values at this temperature."""
 
 
 @dataclass(frozen=True)
@@ -169,8 +170,15 @@ def knee_column(knee: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]
     return col
 
 
+def thermal_stiffness_column(s: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Δ·(temp_joint − THERMAL_ZERO_REF_C) [rad·K]: the column of a stiffness that changes
+    linearly with the joint's temperature."""
+    return (np.asarray(s["torsion"], dtype=float)
+            * (np.asarray(s["temp_joint"], dtype=float) - THERMAL_ZERO_REF_C))
+
+
 def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
-                    centre: float | None = None) -> LinearModel:
+                    centre: float | None = None, thermal: bool = False) -> LinearModel:
     """The twist–torque law `m` plus the compliance curve a real transmission has, identified
     like k: a cubic k3·Δ³ [N·m/rad³] (a gear train stiffening smoothly as its teeth take load)
     and, at each knee twist θ_j [rad], a change of stiffness dk_j [N·m/rad] beyond it,
@@ -178,8 +186,11 @@ def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
     K1 < K2 < K3 joined at two knee torques (Taghirad & Bélanger), which no single k and no
     smooth polynomial of Δ follows. With `centre` θ₀ [rad], a change dk_0 beyond θ₀ as
     well: the centre of a curve whose teeth take up the load progressively is softer (k is then
-    the stiffness inside ±θ₀), or, with dk_0 < 0, a stiffer centre (a preloaded stage). Named
-    '<m>+stiffening'; m unchanged when it has k3 already."""
+    the stiffness inside ±θ₀), or, with dk_0 < 0, a stiffer centre (a preloaded stage). With
+    `thermal`, a stiffness that follows the joint's temperature, k_T·Δ·(temp_joint −
+    THERMAL_ZERO_REF_C) [N·m/(rad·K)]: a gearbox's teeth and oil film soften as it warms, and a
+    campaign's runs span tens of kelvin. Named '<m>+stiffening'; m unchanged when it has k3
+    already."""
     if "k3" in m.param_names:
         return m
     terms = [Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
@@ -193,6 +204,11 @@ def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
         terms.append(Term(f"knee {j} at {knee:.3g} rad", (f"dk_{j}",), ("N·m/rad",),
                           knee_column(float(knee)), ("torsion",)))
         desc[f"dk_{j}"] = f"stiffness change beyond the twist {knee:.3g} rad"
+    if thermal:
+        terms.append(Term("stiffness with temperature", ("k_T",), ("N·m/(rad·K)",),
+                          thermal_stiffness_column, ("torsion", "temp_joint")))
+        desc["k_T"] = (f"stiffness change per kelvin from {THERMAL_ZERO_REF_C:g} °C of the "
+                       "joint's temperature")
     return replace(m, name=f"{m.name}+stiffening", terms=m.terms + tuple(terms),
                    descriptions={**m.descriptions, **desc})
 
