@@ -256,8 +256,7 @@ def _best_shape(models: list[tuple[dict, LinearModel]], tr: dict, te: dict) -> _
             shape, m = s2, m2
     f = _fit(m, shape, tr, te)
     return replace(f, objection=(physical_objection(f.model, f.theta, f.se)
-                                 or angle_lag_objection(f.model, f.theta, tr)
-                                 or smooth_corner_objection(f.model, tr)))
+                                 or angle_lag_objection(f.model, f.theta, tr)))
 
 
 def ls_stiffness(sig: dict) -> float:
@@ -304,27 +303,6 @@ def angle_lag_objection(model: LinearModel, theta: np.ndarray, tr: dict) -> str 
     if float(e_dir @ e_dir) <= float(e_lag @ e_lag):
         return ("the twist's error follows the direction of motion, not the speed: a column "
                 "sgn q̇ predicts the training runs as well as a lag's q̇")
-    return None
-
-
-def smooth_corner_objection(model: LinearModel, tr: dict) -> str | None:
-    """Why a dead zone fitted on a twist–torque law (backlash on the twist) is not one, or
-    None: a dead zone softens the law inside its gap, a corner of the compliance curve at zero
-    twist; a curve whose stiffness rises with |Δ| from zero (an exponential or Hertzian contact
-    curve, k2·Δ|Δ| to first order) has a corner there too, smooth where the dead zone's is
-    sharp. The dead zone is objected to when that curve's column, in its place, predicts the
-    training runs each from the others (leave-one-run-out) at least as well."""
-    if (not model.effects or model.effects[-1] != "backlash" or model.kind != "transmission"
-            or "torsion" not in model.terms[-1].requires or np.unique(tr["run"]).size < 2):
-        return None
-    curve = Term("stiffening in |Δ|", ("k2",), ("N·m/rad²",),
-                 lambda s: s["torsion"] * np.abs(s["torsion"]), ("torsion",))
-    alt = replace(model, terms=model.terms[:-1] + (curve,))
-    e_dead = leave_one_group_out(model.design(tr), model.target(tr), tr["run"])
-    e_curve = leave_one_group_out(alt.design(tr), alt.target(tr), tr["run"])
-    if float(e_curve @ e_curve) <= float(e_dead @ e_dead):
-        return ("the compliance curve's corner at zero twist is smooth: a stiffness rising as "
-                "|Δ| (k2·Δ|Δ|) predicts the training runs as well as a dead zone")
     return None
 
 

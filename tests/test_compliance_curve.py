@@ -288,25 +288,3 @@ def test_friction_that_falls_with_the_load_is_not_load_dependent_friction():
         _assert_the_sign_decides([({}, m.with_effect("load_dependent_friction"))], m, tr, te,
                                  "mu", sign)
 
-
-def test_a_smooth_corner_at_zero_twist_is_no_dead_zone():
-    """An exponential stiffening curve (slope K at zero twist, 1.6·K at 8.7 mrad) has a corner
-    of its compliance curve at zero twist, as a dead zone does, but a smooth one: a dead zone's
-    column takes part of it (validation rig Z), and is objected to because a stiffness rising as
-    |Δ| predicts the training runs as well. A real dead zone is not."""
-    from estimator.diagnosis_candidates import smooth_corner_objection
-    k, b = 1.2e7, np.log(1.6) / 8.7e-3
-
-    def exponential(d):
-        return np.sign(d) * k / b * np.expm1(b * np.abs(d))
-
-    def dead(d):
-        return k * backlash_twist(d, 3e-4)
-    opt = DiagnosisOptions()
-    for curve, objected in ((exponential, True), (dead, False)):
-        runs = [signals(curve, seed=s) for s in range(4)]
-        for i, s in enumerate(runs):
-            s["run"] = np.full(s["t"].size, i)
-        tr = {key: np.concatenate([s[key] for s in runs]) for key in runs[0]}
-        m = with_stiffening(eq5(), compliance_knees(tr, opt)).with_effect("backlash", b=3e-4)
-        assert (smooth_corner_objection(m, tr) is not None) == objected, curve.__name__
