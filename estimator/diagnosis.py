@@ -676,15 +676,15 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     tprep = replace(prep, decimate=prep.decimate * opt.transmission_decimate)
     # the joint's temperature when every run has it: the nominal's stiffness may follow it
     # (a sample whose temperature is missing is then left out of the nominal's shape too)
-    need = ("t",) + TRANSMISSION_SIGNALS
+    need = TRANSMISSION_SIGNALS
     if opt.stiffness_thermal is not False:
         try:
             for r in runs:
-                prepare(r, need + ("temp_joint",), tprep)
+                prepare(r, ("t", "temp_joint"), tprep)
             need = need + ("temp_joint",)
         except (KeyError, ValueError):
             pass
-    tr = _pool(train_runs, need[1:], tprep, 0)
+    tr = _pool(train_runs, need, tprep, 0)
     progress("twist–torque law: nominal shape", 0, 1)
     model, shape = transmission_model(spec, tr, opt, twist_resolution(runs))
     progress("twist–torque law: nominal shape", 1, 1)

@@ -14,7 +14,7 @@ from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated
                                       twist_step)
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size, blocks_improved_z
-from estimator.least_squares import ols
+from estimator.least_squares import OLSResult, leave_one_group_out, ols
 from estimator.models import (LinearModel, bouc_wen_x, eq11, knee_column,
                               thermal_stiffness_column, with_stiffening)
 from estimator.preprocess import PrepOptions
@@ -92,6 +92,22 @@ def twist_resolution(runs: Sequence[RunData]) -> float | None:
     return max(steps) if steps and min(steps) > 0 else None
 
 
+def _runs(tr: dict, n: int) -> np.ndarray:
+    """Each sample's run of the training signals `tr` (all one run when they do not say)."""
+    return np.asarray(tr["run"]) if "run" in tr else np.zeros(n, dtype=np.int64)
+
+
+def _fit_last_se(X: np.ndarray, y: np.ndarray, tr: dict, opt: DiagnosisOptions
+                 ) -> tuple[OLSResult, float]:
+    """The least-squares fit of y on X and the standard error of its last coefficient, robust
+    to the residual's correlation within the batch-means blocks of the runs of `tr`
+    (block_robust_cov)."""
+    fit = ols(X, y)
+    run = _runs(tr, y.size)
+    blocks = block_ids(run, block_size(run, opt.block))
+    return fit, float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+
+
 def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
                 resolution: float | None) -> tuple[str, float] | None:
     """A centre of the compliance curve that differs from the rest: ("soft", θ₀), ("stiff", θ₀)
@@ -141,10 +157,7 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     if best is None:
         return None
     X = np.column_stack([base, knee_column(best)(tr)])
-    fit = ols(X, y)
-    run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
-    blocks = block_ids(run, block_size(run, opt.block))
-    se_dk = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+    fit, se_dk = _fit_last_se(X, y, tr, opt)
     if not (np.isfinite(se_dk) and abs(fit.theta[-1]) > opt.z_gain * se_dk):
         return None
     if fit.theta[-1] < 0:
@@ -192,32 +205,24 @@ def _confirmed_column(tr: dict, law: np.ndarray, col: np.ndarray,
     significant (a few hundred N·m on a law that lacks nothing). With the zeros taken out, only
     what changes with the twist within the runs is left to the column."""
     y = np.asarray(tr["torque"], dtype=float)
-    run = np.asarray(tr["run"]) if "run" in tr else np.zeros(y.size, dtype=np.int64)
-    X = np.column_stack([law, col])
-    fit = ols(X, y)
-    blocks = block_ids(run, block_size(run, opt.block))
-    se = float(np.sqrt(max(block_robust_cov(X, y - X @ fit.theta, blocks)[-1, -1], 0.0)))
+    fit, se = _fit_last_se(np.column_stack([law, col]), y, tr, opt)
     if not (np.isfinite(se) and abs(fit.theta[-1]) > opt.z_gain * se):
         return False
-    runs = np.unique(run)
+    run = _runs(tr, y.size)
+    runs, idx = np.unique(run, return_inverse=True)
     if runs.size < 3:
         return False
-    zeros = (run[:, None] == runs[None, :]).astype(float)
+    # each run's own zero; left out, a run's zero column is zero on the others, so its
+    # minimum-norm coefficient is 0 and its mean error is taken off instead
+    zeros = (idx[:, None] == np.arange(runs.size)[None, :]).astype(float)
     without = np.column_stack([np.delete(law, 2, axis=1), zeros])
-    gain = np.empty(y.size)
-    sse = np.zeros(2)
-    for r in runs:
-        out = run == r
-        errs = []
-        for i, A in enumerate((without, np.column_stack([without, col]))):
-            keep = np.any(A[~out] != 0, axis=0)      # the left-out run's zero is not fitted
-            theta = np.linalg.lstsq(A[~out][:, keep], y[~out], rcond=None)[0]
-            e = y[out] - A[out][:, keep] @ theta
-            e = e - e.mean()
-            sse[i] += float(e @ e)
-            errs.append(e)
-        gain[out] = errs[0] ** 2 - errs[1] ** 2
-    return bool(sse[1] < sse[0] and blocks_improved_z(gain, blocks) > opt.z_gain)
+    errs = []
+    for A in (without, np.column_stack([without, col])):
+        e = leave_one_group_out(A, y, run)
+        errs.append(e - (np.bincount(idx, weights=e) / np.bincount(idx))[idx])
+    gain = errs[0] ** 2 - errs[1] ** 2
+    blocks = block_ids(run, block_size(run, opt.block))
+    return bool(gain.sum() > 0 and blocks_improved_z(gain, blocks) > opt.z_gain)
 
 
 def _law(tr: dict, knees: tuple[float, float], centre: float | None) -> np.ndarray:
