@@ -222,6 +222,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 15.0, "encoder_res_deg": 0.015, "torque_noise": 180.0,
              "torque_lag_s": 0.006},
             few_runs=True),
+    Variant("rig AB 200 Hz, 0.003° encoder, 2 ms torque lag", "rig_ab",
+            {"sample_rate_hz": 200.0, "encoder_res_deg": 0.003, "torque_noise": 150.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig AB 30 Hz, 0.01° encoder, 5 ms torque lag, 4+2 runs", "rig_ab",
+            {"sample_rate_hz": 30.0, "encoder_res_deg": 0.01, "torque_noise": 200.0,
+             "torque_lag_s": 0.005},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
