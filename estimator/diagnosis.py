@@ -90,8 +90,8 @@ from estimator.diagnosis_regions import label_regions, region_table
 from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov, block_size,
                                        bootstrap_shrinkage, covering_runs, cross_correlation,
                                        mean_se, spectral_line, whiteness)
-from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, transmission_model,
-                                              twist_resolution, twist_zeros)
+from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, lost_motion_objection,
+                                              transmission_model, twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
 from estimator.models import LinearModel, with_torque_gain
 from estimator.preprocess import PrepOptions, prepare
@@ -249,6 +249,17 @@ class _Search:
     under the sensors' (whose surrogate overstated the encoders' rounding)."""
 
 
+def _objected(f: _Fit, tr: dict, opt: DiagnosisOptions) -> _Fit:
+    """The candidate's fit with the objections that need the options (a dead zone's lost
+    motion, estimator.diagnosis_transmission.lost_motion_objection) added to those its shape
+    search found: an objected fit is never significant."""
+    if f.objection is None:
+        why = lost_motion_objection(f, tr, opt)
+        if why is not None:
+            return replace(f, objection=why)
+    return f
+
+
 def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
             is_train: np.ndarray, blocks: np.ndarray, test_runs: Sequence[RunData],
             law_prep: PrepOptions, opt: DiagnosisOptions) -> _Search:
@@ -269,7 +280,7 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
     fits = {}
     progress(f"{law}: candidates", 0, len(cands))
     for name, ms in cands.items():
-        fits[name] = _best_shape(ms, tr, te)
+        fits[name] = _objected(_best_shape(ms, tr, te), tr, opt)
         progress(f"{law}: candidates", len(fits), len(cands))
     table = []
     contrib = {name: _contribution(base_fit, f, tr) for name, f in fits.items()}
@@ -327,7 +338,7 @@ def _search(model: LinearModel, law: str, tr: dict, te: dict, pooled: dict,
             trial = {}
             progress(stage, 0, len(grids))
             for n, ms in grids.items():
-                trial[n] = _best_shape(ms, tr, te)
+                trial[n] = _objected(_best_shape(ms, tr, te), tr, opt)
                 progress(stage, len(trial), len(grids))
         first = False
         scored = {n: _score(cur, f, te_blocks, opt) for n, f in trial.items()}

@@ -9,7 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from core.run import RunData
-from estimator.diagnosis_candidates import angle_lag_objection, bouc_wen_grid, ls_stiffness
+from estimator.diagnosis_candidates import _Fit, angle_lag_objection, bouc_wen_grid, ls_stiffness
 from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated_resolution,
                                       twist_step)
 from estimator.diagnosis_options import DiagnosisOptions
@@ -223,6 +223,71 @@ def _confirmed_column(tr: dict, law: np.ndarray, col: np.ndarray,
     gain = errs[0] ** 2 - errs[1] ** 2
     blocks = block_ids(run, block_size(run, opt.block))
     return bool(gain.sum() > 0 and blocks_improved_z(gain, blocks) > opt.z_gain)
+
+
+def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | None:
+    """Why a dead zone fitted on a twist–torque law (backlash: the column
+    backlash_twist(Δ, b) − Δ, coefficient k_bl) is not one, or None.
+    A dead zone is lost motion: where the torque reverses, the twist crosses the gap, so the
+    twist read as a function of the torque, Δ(T), steps by ±b₀ at T = 0. The law T(Δ) is read
+    through a twist the encoders round to a step, and there a gap of a step or two and a
+    stiffness that merely rises from a softer centre (a smooth compliance curve, a break a few
+    steps out) draw the same points: the dead zone's column takes both, with k_bl below the
+    stiffness beyond it. Its fit says how much lost motion it needs, b₀ = k_bl·b/k_loc [rad]
+    (k_loc: the slope of the fitted law without the dead zone's column over b < |Δ| < 3b).
+    The inverse law looks for it where the rounding is noise in the regressand, not a smear of
+    the regressor: the twist regressed on the torque and sgn T, whose coefficient j is the
+    lost motion the runs show where the torque changes sign within a run; T, T·|T| and T³ are
+    the curve's shape (T·|T| the softer centre of a hardening curve), Δ̇ the damping, and each
+    run has its own zero (its encoders'). Samples whose torque lies within
+    the fitted law's residual RMS of zero are left out: whether the gear rests on one flank or
+    crosses the gap there, their torque does not say. Objected to when j lies below the
+    midpoint between no lost motion and b₀ by `opt.z_gain` of its standard error robust to
+    the residual's correlation within the batch-means blocks (block_robust_cov): the twist
+    then says "no gap" more than "this gap". None when the runs cannot tell (no run reverses
+    the torque, too few samples beyond b, or the fit needs no lost motion)."""
+    m = f.model
+    if (not m.effects or m.effects[-1] != "backlash" or m.kind != "transmission"
+            or "b" not in f.shape):
+        return None
+    names = list(m.param_names)
+    i = names.index("k_bl")
+    d = np.asarray(tr["torsion"], dtype=float)
+    torque = np.asarray(tr["torque"], dtype=float)
+    b = float(f.shape["b"])
+    rest = [c for c in range(len(names)) if c != i]
+    law = m.design(tr)[:, rest] @ f.theta[rest]
+    beyond = (np.abs(d) > b) & (np.abs(d) < 3.0 * b)
+    if beyond.sum() <= 2 or np.ptp(d[beyond]) <= 0:
+        return None
+    k_loc = float(np.polyfit(d[beyond], law[beyond], 1)[0])
+    gap = float(f.theta[i]) * b / k_loc if k_loc > 0 else 0.0
+    if not gap > 0:
+        return None
+    keep = np.abs(torque) > f.rmse_train_dof
+    sub = {k: np.asarray(v)[keep] for k, v in tr.items()
+           if isinstance(v, np.ndarray) and v.shape[:1] == d.shape}
+    d, torque = d[keep], torque[keep]
+    run = _runs(sub, d.size)
+    _, idx = np.unique(run, return_inverse=True)
+    zeros = (idx[:, None] == np.arange(idx.max() + 1)[None, :]).astype(float)
+    step = np.sign(torque)
+    # sgn T within the runs: a run whose torque keeps one sign shows no reversal
+    within = step - (np.bincount(idx, weights=step) / np.bincount(idx))[idx]
+    if not within @ within > 0:
+        return None
+    tn = torque / (float(np.quantile(np.abs(torque), 0.99)) or 1.0)
+    X = np.column_stack([tn, tn * np.abs(tn), tn ** 3, sub["torsion_rate"], zeros, step])
+    if d.size <= 2 * X.shape[1]:
+        return None
+    fit, se = _fit_last_se(X, d, sub, opt)
+    j = float(fit.theta[-1])
+    if fit.rank < X.shape[1] or not (np.isfinite(se) and se > 0):
+        return None
+    if gap / 2.0 - j > opt.z_gain * se:
+        return (f"a dead zone needs {gap:.2g} rad of lost motion; the twist steps by "
+                f"{j:.2g} ± {se:.2g} rad where the torque reverses")
+    return None
 
 
 def _law(tr: dict, knees: tuple[float, float], centre: float | None) -> np.ndarray:
