@@ -239,9 +239,9 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     the regressor: the twist regressed on the torque and sgn T, whose coefficient j is the
     lost motion the runs show where the torque changes sign within a run; T, T·|T| and T³ are
     the curve's shape (T·|T| the softer centre of a hardening curve), Δ̇ the damping, and each
-    run has its own zero (its encoders'). Samples whose torque lies within
-    the fitted law's residual RMS of zero are left out: whether the gear rests on one flank or
-    crosses the gap there, their torque does not say. Objected to when j lies below the
+    run has its own zero (its encoders'). Samples whose torque lies within the fitted law's
+    residual RMS of zero are left out: whether the gear rests on one flank or crosses the gap
+    there, their torque does not say. Objected to when j lies below the
     midpoint between no lost motion and b₀ by `opt.z_gain` of its standard error robust to
     the residual's correlation within the batch-means blocks (block_robust_cov): the twist
     then says "no gap" more than "this gap". None when the runs cannot tell (no run reverses
@@ -265,6 +265,8 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     if not gap > 0:
         return None
     keep = np.abs(torque) > f.rmse_train_dof
+    if not keep.any():
+        return None
     sub = {k: np.asarray(v)[keep] for k, v in tr.items()
            if isinstance(v, np.ndarray) and v.shape[:1] == d.shape}
     d, torque = d[keep], torque[keep]
