@@ -229,6 +229,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 30.0, "encoder_res_deg": 0.01, "torque_noise": 200.0,
              "torque_lag_s": 0.005},
             few_runs=True),
+    Variant("rig AC 500 Hz, 0.002° encoder, 1.5 ms torque lag", "rig_ac",
+            {"sample_rate_hz": 500.0, "encoder_res_deg": 0.002, "torque_noise": 160.0,
+             "torque_lag_s": 0.0015}),
+    Variant("rig AC 40 Hz, 0.008° encoder, 4 ms torque lag, 4+2 runs", "rig_ac",
+            {"sample_rate_hz": 40.0, "encoder_res_deg": 0.008, "torque_noise": 190.0,
+             "torque_lag_s": 0.004},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
