@@ -97,6 +97,18 @@ def _runs(tr: dict, n: int) -> np.ndarray:
     return np.asarray(tr["run"]) if "run" in tr else np.zeros(n, dtype=np.int64)
 
 
+def _run_zeros(run: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's run index (0 … runs − 1) and a column per run, 1 on its samples: each
+    run's own zero in a law (an encoder zeroed within its step)."""
+    _, idx = np.unique(run, return_inverse=True)
+    return idx, (idx[:, None] == np.arange(idx.max() + 1)[None, :]).astype(float)
+
+
+def _less_run_means(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """x with each run's mean taken off (`idx`: each sample's run index, _run_zeros)."""
+    return x - (np.bincount(idx, weights=x) / np.bincount(idx))[idx]
+
+
 def _fit_last_se(X: np.ndarray, y: np.ndarray, tr: dict, opt: DiagnosisOptions
                  ) -> tuple[OLSResult, float]:
     """The least-squares fit of y on X and the standard error of its last coefficient, robust
@@ -209,17 +221,14 @@ def _confirmed_column(tr: dict, law: np.ndarray, col: np.ndarray,
     if not (np.isfinite(se) and abs(fit.theta[-1]) > opt.z_gain * se):
         return False
     run = _runs(tr, y.size)
-    runs, idx = np.unique(run, return_inverse=True)
-    if runs.size < 3:
+    idx, zeros = _run_zeros(run)
+    if zeros.shape[1] < 3:
         return False
     # each run's own zero; left out, a run's zero column is zero on the others, so its
     # minimum-norm coefficient is 0 and its mean error is taken off instead
-    zeros = (idx[:, None] == np.arange(runs.size)[None, :]).astype(float)
     without = np.column_stack([np.delete(law, 2, axis=1), zeros])
-    errs = []
-    for A in (without, np.column_stack([without, col])):
-        e = leave_one_group_out(A, y, run)
-        errs.append(e - (np.bincount(idx, weights=e) / np.bincount(idx))[idx])
+    errs = [_less_run_means(leave_one_group_out(A, y, run), idx)
+            for A in (without, np.column_stack([without, col]))]
     gain = errs[0] ** 2 - errs[1] ** 2
     blocks = block_ids(run, block_size(run, opt.block))
     return bool(gain.sum() > 0 and blocks_improved_z(gain, blocks) > opt.z_gain)
@@ -241,11 +250,11 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     the curve's shape (T·|T| the softer centre of a hardening curve), Δ̇ the damping, and each
     run has its own zero (its encoders'). Samples whose torque lies within the fitted law's
     residual RMS of zero are left out: whether the gear rests on one flank or crosses the gap
-    there, their torque does not say. Objected to when j lies below the
-    midpoint between no lost motion and b₀ by `opt.z_gain` of its standard error robust to
-    the residual's correlation within the batch-means blocks (block_robust_cov): the twist
-    then says "no gap" more than "this gap". None when the runs cannot tell (no run reverses
-    the torque, too few samples beyond b, or the fit needs no lost motion)."""
+    there, their torque does not say. Objected to when j lies below the midpoint between no
+    lost motion and b₀ by `opt.z_gain` of its standard error robust to the residual's
+    correlation within the batch-means blocks (block_robust_cov): the twist then says "no gap"
+    more than "this gap". None when the runs cannot tell (no run reverses the torque, too few
+    samples beyond b, or the fit needs no lost motion)."""
     m = f.model
     if (not m.effects or m.effects[-1] != "backlash" or m.kind != "transmission"
             or "b" not in f.shape):
@@ -270,12 +279,10 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     sub = {k: np.asarray(v)[keep] for k, v in tr.items()
            if isinstance(v, np.ndarray) and v.shape[:1] == d.shape}
     d, torque = d[keep], torque[keep]
-    run = _runs(sub, d.size)
-    _, idx = np.unique(run, return_inverse=True)
-    zeros = (idx[:, None] == np.arange(idx.max() + 1)[None, :]).astype(float)
+    idx, zeros = _run_zeros(_runs(sub, d.size))
     step = np.sign(torque)
     # sgn T within the runs: a run whose torque keeps one sign shows no reversal
-    within = step - (np.bincount(idx, weights=step) / np.bincount(idx))[idx]
+    within = _less_run_means(step, idx)
     if not within @ within > 0:
         return None
     tn = torque / (float(np.quantile(np.abs(torque), 0.99)) or 1.0)
