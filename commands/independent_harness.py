@@ -236,6 +236,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 40.0, "encoder_res_deg": 0.008, "torque_noise": 190.0,
              "torque_lag_s": 0.004},
             few_runs=True),
+    Variant("rig AD 1 kHz, 0.0015° encoder, 1 ms torque lag", "rig_ad",
+            {"sample_rate_hz": 1000.0, "encoder_res_deg": 0.0015, "torque_noise": 120.0,
+             "torque_lag_s": 0.001}),
+    Variant("rig AD 12 Hz, 0.02° encoder, 6 ms torque lag, 4+2 runs", "rig_ad",
+            {"sample_rate_hz": 12.0, "encoder_res_deg": 0.02, "torque_noise": 220.0,
+             "torque_lag_s": 0.006},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
