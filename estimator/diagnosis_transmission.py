@@ -250,7 +250,11 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     the curve's shape (T·|T| the softer centre of a hardening curve), Δ̇ the damping, and each
     run has its own zero (its encoders'). Samples whose torque lies within the fitted law's
     residual RMS of zero are left out: whether the gear rests on one flank or crosses the gap
-    there, their torque does not say. Objected to when j lies below the midpoint between no
+    there, their torque does not say. Of the others, only the lower half of the torques (up to
+    their median |T|) is used: over half its range a smooth compliance curve (one that hardens
+    threefold, a soft centre blended into a stiffer line) is close to that cubic, while over the
+    whole range the cubic's misfit leaks into sgn T; a gap's step sits at T = 0 whatever the
+    range (docs/diagnosis.md). Objected to when j lies below the midpoint between no
     lost motion and b₀ by `opt.z_gain` of its standard error robust to the residual's
     correlation within the batch-means blocks (block_robust_cov): the twist then says "no gap"
     more than "this gap". None when the runs cannot tell (no run reverses the torque, too few
@@ -274,6 +278,8 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     if not gap > 0:
         return None
     keep = np.abs(torque) > f.rmse_train_dof
+    if keep.any():      # the curve's shape is fitted over the lower half of the torques
+        keep &= np.abs(torque) <= float(np.median(np.abs(torque[keep])))
     if not keep.any():
         return None
     sub = {k: np.asarray(v)[keep] for k, v in tr.items()
@@ -285,7 +291,7 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     within = _less_run_means(step, idx)
     if not within @ within > 0:
         return None
-    tn = torque / (float(np.quantile(np.abs(torque), 0.99)) or 1.0)
+    tn = torque / (float(np.max(np.abs(torque))) or 1.0)
     X = np.column_stack([tn, tn * np.abs(tn), tn ** 3, sub["torsion_rate"], zeros, step])
     if d.size <= 2 * X.shape[1]:
         return None

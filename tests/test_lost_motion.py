@@ -37,6 +37,12 @@ def smooth_corner(d: np.ndarray) -> np.ndarray:
     return 8e6 / c * (np.exp(c * np.abs(d)) - 1.0) * np.sign(d)
 
 
+def hardening_threefold(d: np.ndarray) -> np.ndarray:
+    """A hardening power law [N·m]: stiffness 6e6 N·m/rad at zero twist, three times that at
+    9 mrad (T = k0·Δ·(1 + 0.8·|Δ/9 mrad|^1.5)), no gap."""
+    return 6e6 * d * (1.0 + 0.8 * np.abs(d / 9e-3) ** 1.5)
+
+
 def campaign(law, seed: int = 0) -> dict:
     """Six runs pooled (100 Hz, 40 s each): three loaded (the twist ramps between 1 and 9 mrad,
     the torque keeps its sign) and three that reverse it (the twist swings ±4 to ±8 mrad); the
@@ -89,6 +95,19 @@ def test_a_smooth_corner_is_no_dead_zone():
     assert why is not None and "lost motion" in why
 
 
+def test_a_curve_that_hardens_threefold_is_no_dead_zone():
+    """Over the whole torque range the inverse law's cubic misses this curve's top, and the
+    misfit leaked into sgn T (j about half the gap the fit needs: not objected, and rig AB's
+    30 Hz nominal was named `backlash`); over the lower half of the torques the cubic holds."""
+    opt = DiagnosisOptions()
+    sig = campaign(hardening_threefold)
+    f = dead_zone_fit(sig, opt)
+    assert f.objection is None
+    assert f.theta[list(f.model.param_names).index("k_bl")] > 0
+    why = lost_motion_objection(f, sig, opt)
+    assert why is not None and "lost motion" in why
+
+
 def test_no_objection_where_no_run_reverses_the_torque():
     """Loaded runs alone: sgn T is one more constant per run, and the twist cannot show the
     lost motion; the objection stays silent rather than guess."""
@@ -100,10 +119,13 @@ def test_no_objection_where_no_run_reverses_the_torque():
     assert lost_motion_objection(f, loaded, opt) is None
 
 
-@pytest.mark.parametrize("name, seed", [("rig Z 120 Hz", 5501), ("rig AA 15 Hz", 5601)])
+@pytest.mark.parametrize("name, seed", [("rig Z 120 Hz", 5501), ("rig AA 15 Hz", 5601),
+                                        ("rig AB 30 Hz", 5701)])
 def test_a_compliance_curve_near_zero_twist_is_not_named_backlash(name, seed):
     """Rig Z's exponential curve and rig AA's first break (4 encoder steps from zero) were
-    named `backlash` on the twist law of their nominal campaigns before the objection."""
+    named `backlash` on the twist law of their nominal campaigns before the objection; rig AB's
+    curve, which hardens threefold, before the inverse law kept to the lower half of the
+    torques."""
     v = next(v for v in VARIANTS if v.name.startswith(name))
     train, test, _ = simulate_campaign(v, seed)
     rep = diagnose(train, test, "eq4", transmission="eq5")
