@@ -278,10 +278,10 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     if not gap > 0:
         return None
     keep = np.abs(torque) > f.rmse_train_dof
-    if keep.any():      # the curve's shape is fitted over the lower half of the torques
-        keep &= np.abs(torque) <= float(np.median(np.abs(torque[keep])))
     if not keep.any():
         return None
+    # the curve's shape is fitted over the lower half of the torques
+    keep &= np.abs(torque) <= float(np.median(np.abs(torque[keep])))
     sub = {k: np.asarray(v)[keep] for k, v in tr.items()
            if isinstance(v, np.ndarray) and v.shape[:1] == d.shape}
     d, torque = d[keep], torque[keep]
