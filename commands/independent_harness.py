@@ -243,6 +243,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 12.0, "encoder_res_deg": 0.02, "torque_noise": 220.0,
              "torque_lag_s": 0.006},
             few_runs=True),
+    Variant("rig AE 640 Hz, 0.001° encoder, 2.5 ms torque lag", "rig_ae",
+            {"sample_rate_hz": 640.0, "encoder_res_deg": 0.001, "torque_noise": 180.0,
+             "torque_lag_s": 0.0025}),
+    Variant("rig AE 10 Hz, 0.01° encoder, 4 ms torque lag, 4+2 runs", "rig_ae",
+            {"sample_rate_hz": 10.0, "encoder_res_deg": 0.01, "torque_noise": 160.0,
+             "torque_lag_s": 0.004},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
