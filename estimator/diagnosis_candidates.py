@@ -37,7 +37,7 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         travel = float(np.ptp(sig["q"]))
         orders = np.asarray([k for k in opt.ripple_orders
                              if k * travel >= 2.0 * np.pi * opt.ripple_min_periods])
-        groups = []
+        groups, motor_group = [], []
         if orders.size:
             top = angle_lines(e_train, sig["q"], orders).get("top_orders")
             groups.append([{"order": float(k)} for k in (top or orders)])
@@ -49,7 +49,8 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
                 and np.ptp(sig["u"]) * n_red >= 2.0 * np.pi * opt.ripple_min_periods):
             m_orders = np.asarray(opt.motor_ripple_orders, dtype=float) * n_red
             top = angle_lines(e_train, sig["u"], m_orders).get("top_orders") or []
-            groups.append([{"order": float(k), "motor": 1.0} for k in top[:2]])
+            motor_group = [{"order": float(k), "motor": 1.0} for k in top[:2]]
+            groups.append(motor_group)
         # an intermediate stage's transmission error: periodic in u at an order between the
         # output's and the motor's (its shaft turns a whole number of times per turn of u only
         # by chance, so not a motor order either)
@@ -67,6 +68,15 @@ def _shape_grid(name: str, sig: dict, opt: DiagnosisOptions, e_train: np.ndarray
         # sine times |T|), when the law has the torque reading
         if "torque" in sig:
             shapes += [{**g[0], "load": 1.0} for g in groups]
+        # a ripple of the motor side turns fast (100 Hz at 3000 r/min and 2 cycles per motor
+        # revolution): it reaches the reading through the joint's dynamics and the law's
+        # low-pass, its amplitude and phase following its frequency (the runs' speeds)
+        w_ref = float(np.median(np.abs(sig["qd"]))) if "qd" in sig else 0.0
+        if w_ref > 0 and motor_group:
+            shapes.append({**motor_group[0], "dynamic": w_ref})
+            if opt.ripple_harmonics > 1:
+                shapes.append({**motor_group[0], "harmonics": float(opt.ripple_harmonics),
+                               "dynamic": w_ref})
         return shapes
     if name == "backlash":
         # the dead-zone half-width b shapes the column, k_bl is fitted (estimator.models)

@@ -411,6 +411,10 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # and its `load`: a mesh whose ripple amplitude grows with the torque it carries (a tooth
     # pair's stiffness varying along the mesh; effects-in-the-wild: "amplitude varying with load")
     load = bool(shape.get("load", 0.0)) if name == "gear_ripple" else False
+    # and its `dynamic`: a ripple that reaches the reading through the joint's dynamics, so its
+    # amplitude and phase follow its frequency order·|u̇| (the value is the speed [rad/s] that
+    # scales the speed columns)
+    w_dyn = float(shape.get("dynamic", 0.0)) if name == "gear_ripple" else 0.0
     # load_dependent_friction's `power_flow` shape likewise: a coefficient per power-flow sign
     power_flow = (bool(shape.get("power_flow", 0.0)) if name == "load_dependent_friction"
                   else False)
@@ -424,7 +428,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
     # error proportional to the speed
     angle = bool(shape.get("angle", 0.0)) if name == "time_delay" else False
     shape = {k: v for k, v in shape.items()
-             if not ((name == "gear_ripple" and k in ("motor", "harmonics", "load"))
+             if not ((name == "gear_ripple" and k in ("motor", "harmonics", "load", "dynamic"))
                      or (name == "load_dependent_friction" and k == "power_flow")
                      or (name == "temperature_friction" and k == "curvature")
                      or (name == "torque_offset" and k in ("settling", "thermal"))
@@ -487,7 +491,7 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                     ("qd", "temp_joint"))
     if name == "gear_ripple":
         order = shape_params["order"]
-        if "phase" in shape and not motor and harmonics == 1 and not load:
+        if "phase" in shape and not motor and harmonics == 1 and not load and not w_dyn:
             ph = shape_params["phase"]
             return Term(name, ("A",), ("N·m",),
                         lambda s: fx.gear_ripple_torque(s["q"], 1.0, order, ph), ("q",))
@@ -500,14 +504,28 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
         # the load-modulated mesh: also the first sine and cosine again times |T|
         if load:
             names, units = names + ("B_sin", "B_cos"), units + ("1", "1")
+        # the dynamic ripple: a response H(Ω) = R(|Ω|) + i·sgn(Ω)·I(|Ω|) (a real system's) to the
+        # ripple's frequency Ω ∝ q̇, R even and I odd in q̇: R ≈ a + b·|q̇|, sgn·I ≈ c·q̇ + d·q̇·|q̇|
+        # (exact at two speeds, a campaign's 300 and 3000 r/min), so each sine and cosine also
+        # times |q̇|, q̇ and q̇·|q̇|, the speeds over w_dyn
+        if w_dyn:
+            names = names + tuple(f"{p}_{n}" for p in ("Ca", "Cs", "Cq")
+                                  for n in names[:2 * harmonics])
+            units = units + ("N·m",) * (6 * harmonics)
+        inputs = (ang,) + (("torque",) if load else ()) + (("qd",) if w_dyn else ())
 
         def ripple_columns(s):
-            cols = [fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
+            base = [fx.gear_ripple_torque(s[ang], 1.0, j * order, ph)
                     for j in range(1, harmonics + 1) for ph in (0.0, np.pi / 2)]
+            cols = list(base)
             if load:
-                cols += [np.abs(s["torque"]) * c for c in cols[:2]]
+                cols += [np.abs(s["torque"]) * c for c in base[:2]]
+            if w_dyn:
+                w = s["qd"] / w_dyn
+                cols += ([np.abs(w) * c for c in base] + [w * c for c in base]
+                         + [w * np.abs(w) * c for c in base])
             return np.column_stack(cols)
-        return Term(name, names, units, ripple_columns, (ang, "torque") if load else (ang,))
+        return Term(name, names, units, ripple_columns, inputs)
     if name == "torque_offset":
         # a constant and a linear drift, plus the column of the shape: a zero that follows the
         # joint's temperature, or a reading that settles after start-up

@@ -245,3 +245,36 @@ def test_backlash_dead_zone_is_a_shape_and_k_bl_is_fitted_on_twist_data():
         eq5().with_effect("backlash", b=0.0)
     with pytest.raises(ValueError):
         eq5().with_effect("backlash", k_bl=1.0)
+
+
+def test_a_motor_ripple_seen_through_the_dynamics_is_fitted_by_its_dynamic_shape():
+    """A motor-side ripple (2 cycles per motor turn) reaching the reading through a first-order
+    low-pass: at 300 r/min (10 Hz) it passes, at 3000 r/min (100 Hz) it comes through at a
+    fifth of its size and late, in either direction. One sine and cosine of the motor angle
+    cannot follow that; the `dynamic` shape (the same times |q̇|, q̇ and q̇·|q̇|) fits it
+    exactly at the two speeds."""
+    n_red, order = 11000.0, 2.0 * 11000.0
+    w_lp = 2.0 * np.pi * 20.0                          # the low-pass corner [rad/s]
+    parts = []
+    for rpm, d in ((300, 1), (3000, -1), (3000, 1), (300, -1)):
+        w = d * rpm * 2.0 * np.pi / 60.0 / n_red      # q̇ [rad/s]
+        t = np.arange(0.0, 4.0, 1e-3)
+        u = w * t + 0.3
+        om = order * w                                 # the ripple's frequency [rad/s]
+        h = 1.0 / (1.0 + 1j * om / w_lp)
+        y = 100.0 * np.imag(h * np.exp(1j * (order * u + 0.4)))
+        parts.append({"u": u, "qd": np.full_like(t, w), "y": y})
+    s = {k: np.concatenate([p[k] for p in parts]) for k in ("u", "qd", "y")}
+    w_ref = float(np.median(np.abs(s["qd"])))
+    plain = eq5().with_effect("gear_ripple", order=order, motor=1.0)
+    dyn = eq5().with_effect("gear_ripple", order=order, motor=1.0, dynamic=w_ref)
+    assert dyn.param_names[-8:] == ["A_sin", "A_cos", "Ca_A_sin", "Ca_A_cos", "Cs_A_sin",
+                                    "Cs_A_cos", "Cq_A_sin", "Cq_A_cos"]
+    assert len(dyn.param_names) - len(plain.param_names) == 6
+
+    def misfit(m):
+        X = m.terms[-1].columns(s)
+        coef, *_ = np.linalg.lstsq(X, s["y"], rcond=None)
+        return float(np.sqrt(np.mean((s["y"] - X @ coef) ** 2)))
+    assert misfit(plain) > 30.0
+    assert misfit(dyn) < 1e-6 * misfit(plain)
