@@ -384,7 +384,10 @@ def _effect_term(model: LinearModel, name: str, shape: Mapping[str, float]) -> T
                               shape motor=1: the same on u (the motor angle over N, `order` = k·N);
                               shape harmonics=h: also at 2·order … h·order (two columns each);
                               shape load=1: also B_sin·|T|·ripple(…, 0) + B_cos·|T|·ripple(…, π/2),
-                              a mesh whose ripple grows with the torque it carries (T measured)
+                              a mesh whose ripple grows with the torque it carries (T measured);
+                              shape dynamic=w: each sine and cosine also times |q̇|/w, q̇/w and
+                              q̇·|q̇|/w² (Ca_…, Cs_…, Cq_…), a fast ripple seen through the
+                              joint's dynamics, its amplitude and phase following the speed
     torque_offset             c0 · torque_offset(t, 1, 0) + drift · torque_offset(t, 0, 1) (sensor;
                               shape settling=τ adds settle · (1 − exp(−t/τ)), a settling reading;
                               shape thermal=1 adds c_temp · (temp − 25 °C), a strain-gauge zero
