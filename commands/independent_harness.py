@@ -250,6 +250,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 10.0, "encoder_res_deg": 0.01, "torque_noise": 160.0,
              "torque_lag_s": 0.004},
             few_runs=True),
+    Variant("rig AF 160 Hz, 0.005° encoder, 3 ms torque lag", "rig_af",
+            {"sample_rate_hz": 160.0, "encoder_res_deg": 0.005, "torque_noise": 150.0,
+             "torque_lag_s": 0.003}),
+    Variant("rig AF 24 Hz, 0.015° encoder, 5 ms torque lag, 4+2 runs", "rig_af",
+            {"sample_rate_hz": 24.0, "encoder_res_deg": 0.015, "torque_noise": 200.0,
+             "torque_lag_s": 0.005},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)

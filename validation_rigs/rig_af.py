@@ -22,7 +22,7 @@ DATA SHEET (SI units; temperatures in °C; "output-referred" = seen at the joint
    | f_v           | 8683.272    | 0.03    | output viscous friction [N·m·s/rad] (Table 3)    |
    | twist_rated   | 0.50° (rad) | 0.04    | twist at which K(Δ) = T_r                        |
    | stiff_ratio ρ | 1.45        | 0.04    | K'(twist_rated) / K'(0)                          |
-   | zeta_t        | 0.12        | 0.10    | damping ratio of the output mode at zero twist   |
+   | zeta_t        | 0.30        | 0.10    | damping ratio of the output mode at zero twist   |
    | bs_rho        | 0.12        | 0.10    | Bliman–Sorine overshoot ratio                    |
    | bs_eps        | 1.2e-4      | 0.10    | Bliman–Sorine slow path length [rad]             |
    | bs_eta        | 0.15        | 0       | fast/slow path-length ratio                      |
@@ -89,9 +89,11 @@ DATA SHEET (SI units; temperatures in °C; "output-referred" = seen at the joint
    contribution is proportional to scale (exactly, or to first order for laws inside a
    nonlinearity). L is the Coulomb level of section 2, v = q̇, θ = θ_g, Δ_r = twist_rated.
    stribeck (added to L, i.e. reached in steady sliding):
-     stretched_exp_0p8   ΔL = s·0.5·f_c·exp(−(|v|/1.5e-3)^0.8)
-     plateau_ramp        ΔL = s·0.4·f_c·clip((4.0e-3 − |v|)/(4.0e-3 − 1.2e-3), 0, 1)
-     sech_decay          ΔL = s·0.45·f_c·sech(|v|/2.0e-3)
+     stretched_exp_0p8   ΔL = s·0.2·f_c·exp(−(|v|/3.0e-3)^0.8)
+     plateau_ramp        ΔL = s·0.2·f_c·clip((8.0e-3 − |v|)/(8.0e-3 − 1.5e-3), 0, 1)
+     sech_decay          ΔL = s·0.2·f_c·sech(|v|/3.0e-3)
+     (Fs/Fc = 1.2 at scale 1; the falling slope stays below the output's damping to the
+     speed-controlled motor up to scale ≈ 2–3; larger scales give real stick–slip at 300 r/min)
    load_dependent_friction (T = transmitted torque):
      dead_band_coulomb   ΔL = s·0.02·max(|T| − 30 000, 0)
      load_scaled_viscous ΔF = s·3.0·(|T|/T_r)·f_v·v
@@ -106,7 +108,7 @@ DATA SHEET (SI units; temperatures in °C; "output-referred" = seen at the joint
    gear_ripple:
      mesh_kinematic_sidebands  transmission error on the twist, Δ → Δ − s·E(q),
                          E = 5e-5·[sin(72q) + 0.35·sin(71q + 0.4) + 0.35·sin(73q + 1.1)] rad
-     motor_1x_3x         Δ → Δ − s·3e-5·[sin(Nu + 0.3) + 0.6·sin(3Nu + 1.2)] rad (1 and 3 per
+     motor_1x_3x         Δ → Δ − s·1.2e-5·[sin(Nu + 0.3) + 0.6·sin(3Nu + 1.2)] rad (1 and 3 per
                          motor revolution)
      load_growing_mesh   T += s·700·(0.25 + |K(Δ)|/T_r)·sin(48q + 0.5) N·m
    torque_offset (on the torque reading only):
@@ -117,9 +119,13 @@ DATA SHEET (SI units; temperatures in °C; "output-referred" = seen at the joint
    time_delay (readings only): torque_bus_latency torque lags s·5 ms; q_channel_lag q and qd lag
      s·8 ms; u_channel_lag u, ud and w_m· lag s·6 ms.
    hysteresis (torque added to T, rate-independent):
-     preisach_relays     h = s·1500·mean(r_i) over 64 relays r_i = ±1 that switch up at
-                         c_i + w_i and down at c_i − w_i, c_i ∈ 8 centres linspace(−0.9, 0.9)·Δ_r,
-                         w_i ∈ 8 half-widths linspace(0.04, 0.5)·Δ_r; start r_i = sgn(Δ0 − c_i)
+     preisach_relays     h = −s·1500·mean(r_i) over 64 relays r_i = ±1 on the twist that switch
+                         up at Δ ≥ c_i + w_i and down at Δ ≤ c_i − w_i, c_i ∈ 8 centres
+                         linspace(−0.9, 0.9)·Δ_r, w_i ∈ 8 half-widths linspace(0.04, 0.5)·Δ_r
+                         (all 64 pairs); start r_i = +1 if Δ0 ≥ c_i else −1. The relays are a
+                         hysteretic slip (a twist that lags the torque), so h enters with a minus
+                         sign: ∮h·dΔ > 0, the loop dissipates (it also softens the law by up to
+                         s·1500 N·m at large twist).
      duhem_envelope      ḣ = (|Δ̇|/(0.12·Δ_r))·(s·1200·sgn(Δ̇)/(1 + (Δ/Δ_r)²) − h)
      bouc_wen_n1_normalised h = s·1000·z, ż = (Δ̇ − ½|Δ̇|z − ½Δ̇|z|)/(0.1·Δ_r)
    backlash (dead zone on the twist, half-gap b; the damper acts through the contact only:
@@ -142,9 +148,9 @@ DATA SHEET (SI units; temperatures in °C; "output-referred" = seen at the joint
    encoder_drift (readings only): q_saturating_creep q + s·2.5e-3·(1 − exp(−t/60)) rad;
      u_root_creep u + s·2.0e-3·√(t/100) rad.
    second_resonance (an extra inertia–spring on the output, ζ fixed):
-     tip_mass_mode       I2 = s·0.08·I at 14 Hz, ζ = 0.02, coupled to q (no load on it)
-     dyno_shaft_mode     the load passes a shaft to a dynamometer rotor I_d = s·0.12·I at 9 Hz,
-                         ζ = 0.04: I_d·q̈_d = τ_s − τ_L, τ_s = k_d(q − q_d) + c_d(q̇ − q̇_d); the
+     tip_mass_mode       I2 = s·0.2·I at 14 Hz, ζ = 0.02, coupled to q (no load on it)
+     dyno_shaft_mode     the load passes a shaft to a dynamometer rotor I_d = s·0.1·I at 20 Hz,
+                         ζ = 0.05: I_d·q̈_d = τ_s − τ_L, τ_s = k_d(q − q_d) + c_d(q̇ − q̇_d); the
                          output sees −τ_s instead of −τ_L; torque_load reads τ_s.
 
 6. Truth (RigRun.truth at the sample instants): t, q, qd, qdd, u, ud, twist (u − q), twist_rate,
@@ -225,16 +231,16 @@ C_G, R_G, C_M, R_W, R_M = 1.5e5, 0.02, 2500.0, 1.2, 0.5
 PHASES = ("idle", "load", "hold", "unload", "excite")
 
 # effect sizes at scale 1 (data sheet section 5)
-STR_EXP = (0.5, 1.5e-3, 0.8)
-STR_PLATEAU = (0.4, 1.2e-3, 4.0e-3)
-STR_SECH = (0.45, 2.0e-3)
+STR_EXP = (0.2, 3.0e-3, 0.8)
+STR_PLATEAU = (0.2, 1.5e-3, 8.0e-3)
+STR_SECH = (0.2, 3.0e-3)
 LDF_DEADBAND = (0.02, 30_000.0)
 LDF_VISC = 3.0
 LDF_BACK = (0.015, 20.0)
 TMP_SLOPE = 0.006
 TMP_EXP = 0.012
 GR_MESH = (5e-5, 72.0)
-GR_MOTOR = 3e-5
+GR_MOTOR = 1.2e-5
 GR_LOAD = (700.0, 48.0)
 OFF_JUMP, OFF_JUMP_DROP = 700.0, 5000.0
 OFF_LOG = (150.0, 5.0)
@@ -254,8 +260,8 @@ PS_ELL = 0.08
 PS_SECT = (0.07, 0.25)
 DRIFT_Q = (2.5e-3, 60.0)
 DRIFT_U = (2.0e-3, 100.0)
-RES_TIP = (0.08, 14.0, 0.02)
-RES_DYNO = (0.12, 9.0, 0.04)
+RES_TIP = (0.2, 14.0, 0.02)
+RES_DYNO = (0.1, 20.0, 0.05)
 N_RELAY = 64
 VG220 = (220.0, 19.0)   # ISO VG 220 gear oil: cSt at 40 °C and 100 °C
 
@@ -470,7 +476,7 @@ _NOMINAL: dict[str, tuple[float, float]] = {   # name: (value, relative SD)
     "I": (6685.166, 0.02), "mr_x": (20.779, 0.06), "mr_y": (-34.543, 0.06),
     "f_c": (2352.660, 0.02), "f_v": (8683.272, 0.03),
     "twist_rated": (math.radians(TWIST_RATED_DEG), 0.04), "stiff_ratio": (1.45, 0.04),
-    "zeta_t": (0.12, 0.10), "bs_rho": (0.12, 0.10), "bs_eps": (1.2e-4, 0.10),
+    "zeta_t": (0.30, 0.10), "bs_rho": (0.12, 0.10), "bs_eps": (1.2e-4, 0.10),
     "bs_eta": (0.15, 0.0), "J_m": (1.8e-3, 0.03), "F_mc": (1800.0, 0.05),
     "f_mv": (20000.0, 0.05), "kt1": (1.25, 0.02), "kt2": (1.25, 0.02), "kt3": (1.25, 0.02),
     "share1": (1 / 3, 0.02), "share2": (1 / 3, 0.02), "share3": (1 / 3, 0.02),
@@ -847,7 +853,7 @@ def _integrate(p, ef, es, fa, fb, wand, relc, relw, y0, nrec, bz_a, bz_g):
         relay[i] = 1.0 if d0 >= relc[i] else -1.0
     h_pre = 0.0
     if ef[F_HYS] == 0 and nrel > 0:
-        h_pre = hscale * relay.sum() / nrel
+        h_pre = -hscale * relay.sum() / nrel
     nb_ = bz_a.shape[0]
     bz = np.zeros(nb_, dtype=np.complex128)
     use_f = p[P_FON] > 0.0
@@ -904,7 +910,7 @@ def _integrate(p, ef, es, fa, fb, wand, relc, relw, y0, nrec, bz_a, bz_g):
                     relay[i] = 1.0
                 elif d <= relc[i] - relw[i]:
                     relay[i] = -1.0
-            h_pre = hscale * relay.sum() / nrel
+            h_pre = -hscale * relay.sum() / nrel
         _deriv(t, y, p, ef, es, fa, fb, wand, h_pre, dy, aux)
         for j in range(N_Y):
             hist[3, j] = hist[2, j]
@@ -1057,6 +1063,7 @@ def simulate_run(scheme: int, motor_speed_rpm: float | None, direction: int, tem
     jit = min(sens.timing_jitter_s, 0.25 / fs)
     t = np.arange(n) / fs + jit * rj.uniform(-1.0, 1.0, n)
     t[0] = 0.0
+    t[-1] = min(t[-1], (n - 1) / fs)
     t = t[t <= tr[-1]]
     n = len(t)
 
