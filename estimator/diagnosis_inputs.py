@@ -79,19 +79,27 @@ def output_encoder_step(runs: Sequence[RunData]) -> float:
     return max(steps) if steps and min(steps) > 0 else 0.0
 
 
-def advanced(y: np.ndarray, t: np.ndarray, lag_s: float) -> np.ndarray:
+def advanced(y: np.ndarray, t: np.ndarray, lag_s: float, noise_sd: float = 0.0) -> np.ndarray:
     """y read lag_s [s] earlier: y(t + lag_s) at the samples t; the last lag's samples are NaN.
     On a uniformly sampled channel with every sample finite the shift is band-limited (the
     spectrum of y's even extension turned by e^{iω·lag_s}): an all-pass, so white sensor noise
     stays white at the sd its sheet states. Linear interpolation would not: a shift by a
     fraction f of the sample period leaves √((1 − f)² + f²) of the noise sd, correlated between
     neighbours, and the sensor floor (sensor_floor) would then stand above the true noise.
-    Otherwise (jittered stamps, missing samples) linear interpolation over the finite ones."""
+    Stamps that jitter about a uniform grid count as uniform when the jitter moves the reading
+    by less than a tenth of its noise sd `noise_sd` (the RMS of jitter × dy/dt): a real
+    acquisition's clock jitters by microseconds. Otherwise (larger jitter, missing samples, no
+    stated noise) linear interpolation over the finite ones."""
     y = np.asarray(y, dtype=float)
     n = y.size
     ok = np.isfinite(y)
     dt = np.diff(t)
     uniform = n >= 4 and ok.all() and float(np.ptp(dt)) <= 1e-6 * float(np.median(dt))
+    if not uniform and n >= 4 and ok.all() and noise_sd > 0 and np.all(dt > 0):
+        i = np.arange(n, dtype=float)
+        grid = np.polyval(np.polyfit(i, t, 1), i)
+        moved = (t - grid) * np.gradient(y, t)
+        uniform = float(np.sqrt(np.mean(moved ** 2))) <= 0.1 * noise_sd
     if not uniform:
         return np.interp(t + lag_s, t[ok], y[ok], right=np.nan)
     shift = lag_s / float(np.median(dt))                 # in samples
@@ -123,7 +131,8 @@ def lag_corrected(run: RunData) -> RunData:
     df = run.samples.copy()
     t = run.t
     for ch, d in lags.items():
-        df[ch] = advanced(df[ch].to_numpy(dtype=float), t, d)
+        df[ch] = advanced(df[ch].to_numpy(dtype=float), t, d,
+                          float(sensors[ch].get("noise_sd", 0.0) or 0.0))
     meta = dict(run.meta)
     meta["sensors"] = {ch: ({**spec, "lag_s": 0.0} if ch in lags else spec)
                        for ch, spec in sensors.items()}
