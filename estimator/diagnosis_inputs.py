@@ -94,8 +94,9 @@ def advanced(y: np.ndarray, t: np.ndarray, lag_s: float, noise_sd: float = 0.0) 
     n = y.size
     ok = np.isfinite(y)
     dt = np.diff(t)
-    uniform = n >= 4 and ok.all() and float(np.ptp(dt)) <= 1e-6 * float(np.median(dt))
-    if not uniform and n >= 4 and ok.all() and noise_sd > 0 and np.all(dt > 0):
+    complete = n >= 4 and bool(ok.all())
+    uniform = complete and float(np.ptp(dt)) <= 1e-6 * float(np.median(dt))
+    if complete and not uniform and noise_sd > 0 and np.all(dt > 0):
         i = np.arange(n, dtype=float)
         grid = np.polyval(np.polyfit(i, t, 1), i)
         moved = (t - grid) * np.gradient(y, t)
