@@ -257,6 +257,13 @@ VARIANTS: tuple[Variant, ...] = (
             {"sample_rate_hz": 24.0, "encoder_res_deg": 0.015, "torque_noise": 200.0,
              "torque_lag_s": 0.005},
             few_runs=True),
+    Variant("rig AG 800 Hz, 0.0025° encoder, 2 ms torque lag", "rig_ag",
+            {"sample_rate_hz": 800.0, "encoder_res_deg": 0.0025, "torque_noise": 170.0,
+             "torque_lag_s": 0.002}),
+    Variant("rig AG 20 Hz, 0.012° encoder, 6 ms torque lag, 4+2 runs", "rig_ag",
+            {"sample_rate_hz": 20.0, "encoder_res_deg": 0.012, "torque_noise": 210.0,
+             "torque_lag_s": 0.006},
+            few_runs=True),
 )
 
 # (scheme, motor speed [r/min], direction, training?)
