@@ -105,6 +105,12 @@ class DiagnosisOptions:
     (estimator.models.with_stiffening), as fractions of the training runs' top |Δ|; all above
     the widest backlash b searched (backlash_b_rel), so a softening within ±b stays the backlash
     candidate's and a stiffness change beyond it is the curve's."""
+    compliance_corner_rel: tuple[float, ...] = (0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.75, 0.9,
+                                                1.1, 1.4)
+    """Corners δ searched for a stiffness change spread smoothly over the twist (the nominal
+    compliance curve's estimator.models.corner_column, kept when the training runs confirm it:
+    estimator.diagnosis_transmission.smooth_corner), as fractions of the training runs' top
+    |Δ|; all above the widest backlash b searched (backlash_b_rel), as the knees are."""
     soft_centre_min_ratio: float = 0.25
     """Least stiffness inside a soft centre of the compliance curve, as a share of the stiffness
     beyond it, for the centre to be the nominal curve's first segment rather than a dead zone

@@ -1,6 +1,7 @@
 """The nominal twist–torque law of the diagnosis's transmission check (estimator.diagnosis): the
-elastic law with a cubic stiffening, the two knees of its compliance curve and a soft centre,
-all found from the training runs, and the encoders' step as the twist sees it."""
+elastic law with a cubic stiffening, the two knees of its compliance curve, a soft or stiff
+centre and a stiffness change spread about a corner, all found from the training runs, and the
+encoders' step as the twist sees it."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from estimator.diagnosis_data import (_pool, base_model, derived_torsion, stated
 from estimator.diagnosis_options import DiagnosisOptions
 from estimator.diagnosis_stats import block_ids, block_robust_cov, block_size, blocks_improved_z
 from estimator.least_squares import OLSResult, leave_one_group_out, ols
-from estimator.models import (LinearModel, bouc_wen_x, eq11, knee_column,
+from estimator.models import (LinearModel, bouc_wen_x, corner_column, eq11, knee_column,
                               thermal_stiffness_column, with_stiffening)
 from estimator.preprocess import PrepOptions
 
@@ -23,32 +24,36 @@ from estimator.preprocess import PrepOptions
 TRANSMISSION_SIGNALS = ("torsion", "torsion_rate", "torque")
 
 
-def _elastic_basis(tr: dict, knees: Sequence[float] = ()
+def _elastic_basis(tr: dict, knees: Sequence[float] = (), corner: float | None = None
                    ) -> tuple[float, np.ndarray, np.ndarray]:
     """The training twist's top |Δ| [rad] (its 99th percentile), the columns of the elastic law
-    T = k·Δ + D·Δ̇ + C + k3·Δ³ (+ a stiffness change beyond each of `knees`), and an orthonormal
+    T = k·Δ + D·Δ̇ + C + k3·Δ³ (+ a stiffness change beyond each of `knees`, + one spread
+    smoothly about `corner`: corner_column), and an orthonormal
     basis of them (column-normalised first): the profile least squares of compliance_knees
     and soft_centre project a trial column and the torque on it."""
     d = np.asarray(tr["torsion"], dtype=float)
     top = float(np.quantile(np.abs(d), 0.99)) or 1e-3
     base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
-                            d ** 3, *(knee_column(k)(tr) for k in knees)])
+                            d ** 3, *(knee_column(k)(tr) for k in knees),
+                            *([corner_column(corner)(tr)] if corner is not None else [])])
     q, _ = np.linalg.qr(base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0),
                                         1.0))
     return top, base, q
 
 
-def compliance_knees(tr: dict, opt: DiagnosisOptions) -> tuple[float, float]:
+def compliance_knees(tr: dict, opt: DiagnosisOptions, corner: float | None = None
+                     ) -> tuple[float, float]:
     """The two knee twists [rad] of the nominal compliance curve: the pair of
     `opt.compliance_knee_rel` (fractions of the training twist's top |Δ|, its 99th
-    percentile) whose elastic law — T = k·Δ + D·Δ̇ + C + k3·Δ³ + the two stiffness changes —
-    has the smallest training RSS (profile least squares over the knees)."""
+    percentile) whose elastic law — T = k·Δ + D·Δ̇ + C + k3·Δ³ + the two stiffness changes
+    (+ the smooth one about `corner`, smooth_corner) — has the smallest training RSS (profile
+    least squares over the knees)."""
     if min(opt.compliance_knee_rel) <= max(opt.backlash_b_rel):
         raise ValueError("compliance_knee_rel must lie above backlash_b_rel (a knee inside the "
                          "dead zones searched would take backlash's place)")
     # the knee columns and the torque with the rest of the law projected out: each pair's RSS
     # is then a 2 × 2 solve
-    top, _, q = _elastic_basis(tr)
+    top, _, q = _elastic_basis(tr, corner=corner)
     y = np.asarray(tr["torque"], dtype=float)
     y = y - q @ (q.T @ y)
 
@@ -121,7 +126,8 @@ def _fit_last_se(X: np.ndarray, y: np.ndarray, tr: dict, opt: DiagnosisOptions
 
 
 def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
-                resolution: float | None) -> tuple[str, float] | None:
+                resolution: float | None, corner: float | None = None
+                ) -> tuple[str, float] | None:
     """A centre of the compliance curve that differs from the rest: ("soft", θ₀), ("stiff", θ₀)
     or None; θ₀ [rad] is its half-width. θ₀ is the half-width, over the dead zones the backlash
     candidate searches (`opt.backlash_b_rel` of the training twist's top |Δ|, SOFT_CENTRE_GRID
@@ -132,7 +138,8 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     they miss it, and a linear law's noise must not buy the nominal a free column.
     - A softer centre (the stiffness beyond θ₀ is higher): a gear train whose teeth take up the
       load progressively; a harmonic drive's catalogue K1 is 0.5–0.7 of K2. It is kept only when
-      the stiffness it leaves inside, k_in, is above `opt.soft_centre_min_ratio` of the
+      the stiffness it leaves inside, k_in (k, plus the smooth change about `corner` when the
+      law has one: smooth_corner), is above `opt.soft_centre_min_ratio` of the
       stiffness beyond it by `opt.z_gain` standard errors of the fit. A dead zone takes the
       stiffness away inside its gap (k_in ≈ 0): that is backlash, left to its candidate. The
       data tell the two apart only when the centre spans `opt.soft_centre_min_steps` of the
@@ -146,7 +153,7 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
       better than every passive loop of the hysteresis candidate's grid (bouc_wen_grid, k_h > 0):
       a loop jumps at each reversal of the twist's rate, and where the runs reverse near zero
       twist that jump is a stiffer centre too; taken into the nominal, it hides the loop."""
-    top, base, q = _elastic_basis(tr, knees)
+    top, base, q = _elastic_basis(tr, knees, corner)
     y = np.asarray(tr["torque"], dtype=float)
     y_left = y - q @ (q.T @ y)
 
@@ -172,11 +179,18 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     fit, se_dk = _fit_last_se(X, y, tr, opt)
     if not (np.isfinite(se_dk) and abs(fit.theta[-1]) > opt.z_gain * se_dk):
         return None
+    # the law's stiffness at the centre: k, plus the smooth change about the corner (whose
+    # column's slope is 1 at zero twist), the column before the centre's
+    at_centre = np.zeros(fit.theta.size)
+    at_centre[0] = 1.0
+    if corner is not None:
+        at_centre[-2] = 1.0
+    k_in = float(at_centre @ fit.theta)
     if fit.theta[-1] < 0:
         # the preload it makes beyond its half-width against the torque of half a twist-step
         # through the stiffness beyond: a smaller one is the reading's rounding
         preload = -fit.theta[-1] * best
-        rounding = (fit.theta[0] + fit.theta[-1]) * resolution / 2.0 if resolution else 0.0
+        rounding = (k_in + fit.theta[-1]) * resolution / 2.0 if resolution else 0.0
         if preload <= rounding:
             return None
         # a passive loop (hysteresis, k_h > 0) jumps at each reversal of the twist's rate; where
@@ -190,8 +204,8 @@ def centre_knee(tr: dict, knees: tuple[float, float], opt: DiagnosisOptions,
     if resolution is None or resolution <= 0:
         return None
     r = opt.soft_centre_min_ratio
-    c = np.zeros(fit.theta.size)
-    c[0], c[-1] = 1.0 - r, -r          # k_in − r·(k_in + dk)
+    c = (1.0 - r) * at_centre
+    c[-1] = -r                         # k_in − r·(k_in + dk)
     margin = float(c @ fit.theta)
     se = float(np.sqrt(max(c @ fit.cov @ c, 0.0)))
     if (fit.theta[-1] > 0 and np.isfinite(se) and margin > opt.z_gain * se
@@ -305,19 +319,54 @@ def lost_motion_objection(f: _Fit, tr: dict, opt: DiagnosisOptions) -> str | Non
     return None
 
 
-def _law(tr: dict, knees: tuple[float, float], centre: float | None) -> np.ndarray:
-    """The columns of the elastic law with the curve's `knees` and `centre` (_elastic_basis)."""
-    _, base, _ = _elastic_basis(tr, knees)
+def _law(tr: dict, knees: tuple[float, float], centre: float | None,
+         corner: float | None = None) -> np.ndarray:
+    """The columns of the elastic law with the curve's `knees`, `centre` and `corner`
+    (_elastic_basis, corner_column)."""
+    _, base, _ = _elastic_basis(tr, knees, corner)
     return np.column_stack([base] + ([knee_column(centre)(tr)] if centre is not None else []))
 
 
+def smooth_corner(tr: dict, knees: tuple[float, float], centre: float | None,
+                  opt: DiagnosisOptions) -> float | None:
+    """The corner δ [rad] of a stiffness change spread smoothly over the twist
+    (estimator.models.corner_column) that the elastic law with the curve's `knees` and
+    `centre` lacks, or None. δ is the one of `opt.compliance_corner_rel` (fractions of the
+    training twist's top |Δ|) whose column fits best (profile least squares), kept only when
+    _confirmed_column confirms it (its coefficient nonzero by `opt.z_gain` robust standard
+    errors, and the runs left out predicted better).
+    Why: knees bend the curve at a twist each, so a curve that bends over the whole range — a
+    rational or saturating tangent stiffness, a soft segment blended into the stiff one — is
+    left with a residual that swings with the twist by more than a fine encoder resolves, and
+    a campaign that lacks nothing reads `unexplained`. Every corner lies beyond the widest
+    dead zone searched, so a softening inside it stays backlash's (or the soft centre's)."""
+    if min(opt.compliance_corner_rel) <= max(opt.backlash_b_rel):
+        raise ValueError("compliance_corner_rel must lie above backlash_b_rel (a corner inside "
+                         "the dead zones searched would take backlash's place)")
+    top = _elastic_basis(tr)[0]
+    law = _law(tr, knees, centre)
+    qb, _ = np.linalg.qr(law / np.where(np.any(law != 0, axis=0), np.abs(law).max(axis=0), 1.0))
+    y = np.asarray(tr["torque"], dtype=float)
+    y = y - qb @ (qb.T @ y)
+    best, best_gain = None, 0.0
+    for rel in opt.compliance_corner_rel:
+        h = corner_column(rel * top)(tr)
+        h = h - qb @ (qb.T @ h)
+        hh = float(h @ h)
+        if hh > 0 and float(h @ y) ** 2 / hh > best_gain:
+            best, best_gain = rel * top, float(h @ y) ** 2 / hh
+    if best is None or not _confirmed_column(tr, law, corner_column(best)(tr), opt):
+        return None
+    return float(best)
+
+
 def thermal_stiffness(tr: dict, knees: tuple[float, float], centre: float | None,
-                      opt: DiagnosisOptions) -> bool:
-    """Whether the elastic law with the curve's `knees` and `centre` (as centre_knee found it)
-    needs a stiffness that follows the joint's temperature (the column
-    k_T·Δ·(temp_joint − T_ref) of estimator.models.with_stiffening), on the training signals
-    `tr` (with temp_joint and run): a gearbox softens as it warms, and a campaign's runs span
-    tens of kelvin. Needed when the temperature spans `opt.thermal_min_span_c` and the column
+                      opt: DiagnosisOptions, corner: float | None = None) -> bool:
+    """Whether the elastic law with the curve's `knees`, `centre` (as centre_knee found it)
+    and `corner` (smooth_corner) needs a stiffness that follows the joint's temperature (the
+    column k_T·Δ·(temp_joint − T_ref) of estimator.models.with_stiffening), on the training
+    signals `tr` (with temp_joint and run): a gearbox softens as it warms, and a campaign's runs
+    span tens of kelvin. Needed when the temperature spans `opt.thermal_min_span_c` and the column
     passes _confirmed_column's two tests (`opt.stiffness_thermal` True: whenever it spans, False:
     never). The temperature is nearly constant within a run, so over runs that each carry
     their own zero this column is mostly one more constant per run: only with the zeros taken
@@ -329,7 +378,8 @@ def thermal_stiffness(tr: dict, knees: tuple[float, float], centre: float | None
         return False
     if opt.stiffness_thermal:
         return True
-    return _confirmed_column(tr, _law(tr, knees, centre), thermal_stiffness_column(tr), opt)
+    return _confirmed_column(tr, _law(tr, knees, centre, corner), thermal_stiffness_column(tr),
+                             opt)
 
 
 def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
@@ -351,7 +401,22 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
     centre = found[1] if found else None
     if found:
         knee_shape[f"{found[0]}_centre"] = found[1]
-    thermal = thermal_stiffness(tr, knees, centre, opt)
+    corner = smooth_corner(tr, knees, centre, opt)
+    if corner is not None:
+        # the knees and the centre chosen again beside the smooth change, kept when the law
+        # then fits the training runs better (each is chosen without the other, so a curve
+        # with a strong soft centre can lose by it)
+        knees2 = compliance_knees(tr, opt, corner)
+        found2 = centre_knee(tr, knees2, opt, resolution, corner)
+        centre2 = found2[1] if found2 else None
+        y = np.asarray(tr["torque"], dtype=float)
+        if (ols(_law(tr, knees2, centre2, corner), y).rss
+                < ols(_law(tr, knees, centre, corner), y).rss):
+            knees, found, centre = knees2, found2, centre2
+        knee_shape = {"knee_1": knees[0], "knee_2": knees[1], "corner": corner}
+        if found:
+            knee_shape[f"{found[0]}_centre"] = found[1]
+    thermal = thermal_stiffness(tr, knees, centre, opt, corner)
     if thermal:
         knee_shape["stiffness_thermal"] = 1.0
     if isinstance(spec, str) and spec in ("auto", "bouc_wen"):
@@ -374,11 +439,11 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
                        options={"maxfev": 80, "xatol": 0.01, "fatol": 1e-6 * rss(v0)})
         sh = shape(res.x if res.fun <= rss(v0) else v0)
         return (with_stiffening(eq11(sh["alpha"], sh["beta"], sh["gamma"], sh["n"]), knees,
-                                centre, thermal), {**sh, **knee_shape})
+                                centre, thermal, corner), {**sh, **knee_shape})
     m = base_model(spec)
     if m.kind != "transmission":
         raise ValueError(f"{m.name!r} is not a transmission (twist–torque) model")
-    return with_stiffening(m, knees, centre, thermal), knee_shape
+    return with_stiffening(m, knees, centre, thermal, corner), knee_shape
 
 
 def twist_zeros(train_runs: Sequence[RunData], test_runs: Sequence[RunData],

@@ -170,6 +170,18 @@ def knee_column(knee: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]
     return col
 
 
+def corner_column(corner: float) -> Callable[[Mapping[str, np.ndarray]], np.ndarray]:
+    """The column of a stiffness change spread smoothly about the twist `corner` δ [rad]:
+    δ·atan(Δ/δ), slope 1 at Δ = 0 falling to 0 well beyond ±δ. With a coefficient dk_c the
+    stiffness goes from k + dk_c at the centre to k far out over a few δ — the smooth
+    counterpart of a knee (knee_column), which bends at one twist: a gear train whose teeth
+    come into contact progressively stiffens over a band of twist, and a curve bent there over
+    a band a fine encoder resolves is missed by knees placed on a grid."""
+    def col(s: Mapping[str, np.ndarray]) -> np.ndarray:
+        return corner * np.arctan(np.asarray(s["torsion"], dtype=float) / corner)
+    return col
+
+
 def thermal_stiffness_column(s: Mapping[str, np.ndarray]) -> np.ndarray:
     """Δ·(temp_joint − THERMAL_ZERO_REF_C) [rad·K]: the column of a stiffness that changes
     linearly with the joint's temperature."""
@@ -178,7 +190,8 @@ def thermal_stiffness_column(s: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
-                    centre: float | None = None, thermal: bool = False) -> LinearModel:
+                    centre: float | None = None, thermal: bool = False,
+                    corner: float | None = None) -> LinearModel:
     """The twist–torque law `m` plus the compliance curve a real transmission has, identified
     like k: a cubic k3·Δ³ [N·m/rad³] (a gear train stiffening smoothly as its teeth take load)
     and, at each knee twist θ_j [rad], a change of stiffness dk_j [N·m/rad] beyond it,
@@ -189,8 +202,9 @@ def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
     the stiffness inside ±θ₀), or, with dk_0 < 0, a stiffer centre (a preloaded stage). With
     `thermal`, a stiffness that follows the joint's temperature, k_T·Δ·(temp_joint −
     THERMAL_ZERO_REF_C) [N·m/(rad·K)]: a gearbox's teeth and oil film soften as it warms, and a
-    campaign's runs span tens of kelvin. Named '<m>+stiffening'; m unchanged when it has k3
-    already."""
+    campaign's runs span tens of kelvin. With `corner` δ [rad], a stiffness change dk_c
+    [N·m/rad] spread smoothly about δ (corner_column). Named '<m>+stiffening'; m unchanged
+    when it has k3 already."""
     if "k3" in m.param_names:
         return m
     terms = [Term("stiffening", ("k3",), ("N·m/rad³",), lambda s: s["torsion"] ** 3,
@@ -204,6 +218,11 @@ def with_stiffening(m: LinearModel, knees: Sequence[float] = (),
         terms.append(Term(f"knee {j} at {knee:.3g} rad", (f"dk_{j}",), ("N·m/rad",),
                           knee_column(float(knee)), ("torsion",)))
         desc[f"dk_{j}"] = f"stiffness change beyond the twist {knee:.3g} rad"
+    if corner is not None:
+        terms.append(Term(f"smooth corner at {corner:.3g} rad", ("dk_c",), ("N·m/rad",),
+                          corner_column(float(corner)), ("torsion",)))
+        desc["dk_c"] = (f"stiffness change at the centre, spread smoothly over the twist "
+                        f"{corner:.3g} rad")
     if thermal:
         terms.append(Term("stiffness with temperature", ("k_T",), ("N·m/(rad·K)",),
                           thermal_stiffness_column, ("torsion", "temp_joint")))

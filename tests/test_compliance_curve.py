@@ -258,6 +258,71 @@ def test_a_linear_laws_noise_makes_no_centre():
             assert found is None, (seed, resolution, found)
 
 
+def _in_runs(sig: dict, runs: int = 6) -> dict:
+    """`sig` cut into `runs` runs of equal length (the column `run`)."""
+    n = sig["t"].size
+    return {**sig, "run": np.arange(n) * runs // n}
+
+
+def rational_tangent(d: np.ndarray) -> np.ndarray:
+    """T(Δ) [N·m] of a curve that bends over the whole range: a tangent stiffness
+    k0·(1 + 2x²)/(1 + x²), x = Δ/3 mrad (k0 at the centre, 2·k0 far out)."""
+    k0, dc = 1e7, 3e-3
+    return k0 * dc * (2.0 * d / dc - np.arctan(d / dc))
+
+
+def test_a_curve_that_bends_over_the_whole_range_takes_a_smooth_corner():
+    """Knees bend the curve at a twist each; a curve whose tangent stiffness rises smoothly over
+    the whole range (rig AE's rational tangent) is left by the cubic and two knees with a
+    residual that swings with the twist, several times the noise. A stiffness change spread
+    about a corner (corner_column) takes it, with its corner found near the curve's own."""
+    from estimator.diagnosis_transmission import smooth_corner
+    opt = DiagnosisOptions()
+    sig = _in_runs(signals(rational_tangent, noise=30.0))
+    knees = compliance_knees(sig, opt)
+    corner = smooth_corner(sig, knees, None, opt)
+    assert corner is not None and 1.5e-3 < corner < 6e-3, corner
+    rmse = {}
+    for name, m in (("knees", with_stiffening(eq5(), knees)),
+                    ("corner", with_stiffening(eq5(), compliance_knees(sig, opt, corner),
+                                               corner=corner))):
+        f = ols(m.design(sig), m.target(sig))
+        rmse[name] = float(np.sqrt(f.rss / sig["torque"].size))
+    assert rmse["corner"] < 45.0 < 2.0 * 45.0 < rmse["knees"], rmse
+    m = with_stiffening(eq5(), knees, corner=corner)
+    assert m.param_names[-1] == "dk_c" and "dk_c" in m.descriptions
+
+
+def test_a_law_that_lacks_nothing_takes_no_smooth_corner():
+    """A linear law and a three-slope curve (its knees found) leave only noise: the corner's
+    column is then not confirmed on the runs left out, whatever the seed."""
+    from estimator.diagnosis_transmission import smooth_corner
+    opt = DiagnosisOptions()
+    for seed in range(4):
+        for curve in (lambda d: 1.3e7 * d, three_slope):
+            sig = _in_runs(signals(curve, seed=seed))
+            assert smooth_corner(sig, compliance_knees(sig, opt), None, opt) is None, seed
+
+
+def test_a_dead_zone_is_not_taken_by_a_smooth_corner():
+    """Backlash of half-width 0.1 mrad on a linear spring: with whatever corner the law takes,
+    the dead zone's column still explains most of what the nominal law leaves. And a corner
+    inside the dead zones searched is refused."""
+    from estimator.diagnosis_transmission import smooth_corner
+    b = 1e-4
+    opt = DiagnosisOptions()
+    sig = _in_runs(signals(lambda d: 1.3e7 * backlash_twist(d, b)))
+    knees = compliance_knees(sig, opt)
+    corner = smooth_corner(sig, knees, None, opt)
+    m = with_stiffening(eq5(), knees, corner=corner)
+    f0 = ols(m.design(sig), m.target(sig))
+    col = backlash_twist(sig["torsion"], b) - sig["torsion"]
+    f1 = ols(np.column_stack([m.design(sig), col]), m.target(sig))
+    assert f1.rss < 0.2 * f0.rss, (corner, f0.rss, f1.rss)
+    with pytest.raises(ValueError, match="backlash_b_rel"):
+        smooth_corner(sig, knees, None, replace(opt, compliance_corner_rel=(0.1, 0.5)))
+
+
 def test_friction_that_falls_short_of_coulomb_at_low_speed_is_not_stribeck():
     """A Stribeck curve is friction that rises above the Coulomb level toward rest (f_s > 0).
     Friction short of it at low speed (f_s < 0: a presliding bearing rebuilding its friction
