@@ -91,8 +91,7 @@ from estimator.diagnosis_stats import (angle_lines, block_ids, block_robust_cov,
                                        bootstrap_shrinkage, covering_runs, cross_correlation,
                                        mean_se, spectral_line, whiteness)
 from estimator.diagnosis_transmission import (TRANSMISSION_SIGNALS, lost_motion_objection,
-                                              transmission_model, twist_rate_source,
-                                              twist_resolution, twist_zeros)
+                                              transmission_model, twist_resolution, twist_zeros)
 from estimator.diagnosis_verdict import merge_transmission, outside_vocabulary, verdict_summary
 from estimator.models import LinearModel, with_torque_gain
 from estimator.preprocess import PrepOptions, prepare
@@ -697,7 +696,6 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
         except (KeyError, ValueError):
             pass
     tr = _pool(train_runs, need, tprep, 0)
-    tprep, tr, rate_source = twist_rate_source(train_runs, need, tprep, tr, opt)
     progress("twist–torque law: nominal shape", 0, 1)
     model, shape = transmission_model(spec, tr, opt, twist_resolution(runs))
     progress("twist–torque law: nominal shape", 1, 1)
@@ -724,7 +722,6 @@ def transmission_diagnosis(train_runs: Sequence[RunData], test_runs: Sequence[Ru
     if _note_angle_lag(d.report["verdict"], d.final, ls_stiffness(tr)):
         d.report["verdict"]["summary"] = verdict_summary(d.report)
     d.report["baseline"]["shape"] = shape
-    d.report["baseline"]["twist_rate"] = rate_source
     d.report["baseline"]["twist_zero"] = zero
     d.report["baseline"]["carried"] = list(carried)
     return d

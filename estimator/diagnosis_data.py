@@ -130,8 +130,7 @@ def _pool(runs: Sequence[RunData], need: Sequence[str], prep: PrepOptions, run0:
             d["phase"] = run.samples["phase"].astype(str).to_numpy()[s["index"]]
         if "torque_rate" in d:
             d["torque_rate"] = _smooth_rate(d["torque"], d["t"], d["segment"])
-        if (prep.measured_twist_rate and "torsion_rate" in d
-                and {"ud", "qd"} <= set(run.samples.columns)):
+        if "torsion_rate" in d and {"ud", "qd"} <= set(run.samples.columns):
             rate = _measured_twist_rate(run, s["index"])
             # a drive that reports the motor speed as both speeds says nothing of the twist
             # rate: then the differentiated twist of preprocess stays

@@ -5,7 +5,6 @@ encoders' step as the twist sees it."""
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
@@ -89,33 +88,6 @@ SOFT_CENTRE_GRID = 48
 """Half-widths tried for a soft centre (soft_centre), log-spaced over the dead zones searched:
 fine enough (4 % apart over the backlash grid's range) that a dead zone's own half-width is
 among them."""
-
-
-def twist_rate_source(train_runs: Sequence[RunData], need: Sequence[str], prep: PrepOptions,
-                      tr: dict, opt: DiagnosisOptions) -> tuple[PrepOptions, dict, str]:
-    """The twist rate the twist–torque law uses, chosen on the training runs: the drives'
-    velocity readings u̇ − q̇ (`tr`, pooled with `prep`, whose measured_twist_rate is True) or
-    the central differences of the twist reading, whichever leaves the elastic law with its
-    curve's knees (_elastic_basis, compliance_knees) the smaller training RSS. Returns the options
-    to pool with, the pooled training signals and "measured" or "differentiated".
-    Why: the readings miss neither the drive train's fast motion between samples nor carry
-    the encoders' steps, but a velocity reading that lags or is filtered harder than its
-    sheet states gives a damping column correlated with Δ̇ at only 0.6 (rig I at 25 Hz): the
-    law's damping is then misfitted, and what it leaves is a loop in the twist's direction,
-    which a hysteresis candidate takes. The two columns enter the same law, so the one that
-    explains more of the torque is the better reading of Δ̇."""
-    if not prep.measured_twist_rate or not any(
-            {"ud", "qd"} <= set(r.samples.columns) for r in train_runs):
-        return prep, tr, "differentiated"
-    alt = replace(prep, measured_twist_rate=False)
-    tr_alt = _pool(train_runs, need, alt, 0)
-
-    def rss(sig: dict) -> float:
-        law = _elastic_basis(sig, compliance_knees(sig, opt))[1]
-        return ols(law, np.asarray(sig["torque"], dtype=float)).rss
-    if rss(tr_alt) < rss(tr):
-        return alt, tr_alt, "differentiated"
-    return prep, tr, "measured"
 
 
 def twist_resolution(runs: Sequence[RunData]) -> float | None:

@@ -62,10 +62,6 @@ class PrepOptions:
     """True: q̇ from central differences of q even when a velocity channel is recorded."""
     filter_outputs: bool = False
     """True: cutoff_hz also filters the torque and the other non-kinematic channels."""
-    measured_twist_rate: bool = True
-    """True: the twist rate Δ̇ of the diagnosis's pooled signals is u̇ − q̇ of the drives'
-    velocity readings when the run records both (estimator.diagnosis_data); False: the
-    twist's central differences, as here."""
     min_speed: float = 0.0
     """[rad/s] Linear models drop the rows where |q̇| < min_speed (estimator.identify): around
     velocity reversals the joint sticks, q̇ sits inside the friction's tanh band (v_eps) and the
