@@ -36,9 +36,16 @@ def _elastic_basis(tr: dict, knees: Sequence[float] = (), corner: float | None =
     base = np.column_stack([d, np.asarray(tr["torsion_rate"], dtype=float), np.ones_like(d),
                             d ** 3, *(knee_column(k)(tr) for k in knees),
                             *([corner_column(corner)(tr)] if corner is not None else [])])
-    q, _ = np.linalg.qr(base / np.where(np.any(base != 0, axis=0), np.abs(base).max(axis=0),
+    return top, base, _orthonormal(base)
+
+
+def _orthonormal(cols: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the columns `cols` (each scaled to its largest |value| first, so
+    the units do not matter): profile least squares projects a trial column and the torque on
+    it."""
+    q, _ = np.linalg.qr(cols / np.where(np.any(cols != 0, axis=0), np.abs(cols).max(axis=0),
                                         1.0))
-    return top, base, q
+    return q
 
 
 def compliance_knees(tr: dict, opt: DiagnosisOptions, corner: float | None = None
@@ -345,7 +352,7 @@ def smooth_corner(tr: dict, knees: tuple[float, float], centre: float | None,
                          "the dead zones searched would take backlash's place)")
     top = _elastic_basis(tr)[0]
     law = _law(tr, knees, centre)
-    qb, _ = np.linalg.qr(law / np.where(np.any(law != 0, axis=0), np.abs(law).max(axis=0), 1.0))
+    qb = _orthonormal(law)
     y = np.asarray(tr["torque"], dtype=float)
     y = y - qb @ (qb.T @ y)
     best, best_gain = None, 0.0
@@ -396,11 +403,8 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
     stiffness_thermal 1.0 when the stiffness follows the joint's temperature (thermal_stiffness;
     `tr` then carries temp_joint))."""
     knees = compliance_knees(tr, opt)
-    knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
     found = centre_knee(tr, knees, opt, resolution)
     centre = found[1] if found else None
-    if found:
-        knee_shape[f"{found[0]}_centre"] = found[1]
     corner = smooth_corner(tr, knees, centre, opt)
     if corner is not None:
         # the knees and the centre chosen again beside the smooth change, kept when the law
@@ -413,9 +417,11 @@ def transmission_model(spec: str | LinearModel, tr: dict, opt: DiagnosisOptions,
         if (ols(_law(tr, knees2, centre2, corner), y).rss
                 < ols(_law(tr, knees, centre, corner), y).rss):
             knees, found, centre = knees2, found2, centre2
-        knee_shape = {"knee_1": knees[0], "knee_2": knees[1], "corner": corner}
-        if found:
-            knee_shape[f"{found[0]}_centre"] = found[1]
+    knee_shape = {"knee_1": knees[0], "knee_2": knees[1]}
+    if corner is not None:
+        knee_shape["corner"] = corner
+    if found:
+        knee_shape[f"{found[0]}_centre"] = found[1]
     thermal = thermal_stiffness(tr, knees, centre, opt, corner)
     if thermal:
         knee_shape["stiffness_thermal"] = 1.0
